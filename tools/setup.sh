@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# diffreg set-up: installs the Debian packages the project needs (idempotent), configures a
+# Release build with CMake and builds it. Then, by sub-command:
+#   tools/setup.sh demo   run the shipped demo scenario (the default)
+#   tools/setup.sh test   run the whole test suite
+#   tools/setup.sh build  only install and build
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$here"
+what="${1:-demo}"
+
+packages=(build-essential cmake pkg-config libopenmesh-dev libeigen3-dev libcgal-dev catch2
+          libboost-program-options-dev libsuitesparse-dev libopenblas0-pthread nlohmann-json3-dev
+          libpng-dev tetgen)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo_cmd=""
+  [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+build="${DIFFREG_BUILD_DIR:-$here/build}"
+jobs="$(nproc 2>/dev/null || echo 2)"
+cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$build" -j "$jobs"
+
+case "$what" in
+  build) ;;
+  demo) "$here/tools/demo.sh" "$build" ;;
+  test) cd "$build" && ctest --output-on-failure -j "$jobs" ;;
+  *) echo "setup: unknown sub-command '$what' (use demo, test or build)" >&2; exit 2 ;;
+esac
