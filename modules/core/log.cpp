@@ -1,0 +1,20 @@
+#include "core/log.h"
+
+#include <atomic>
+#include <iostream>
+
+namespace diffreg {
+namespace {
+std::atomic<bool> g_quiet{false};
+}
+
+void warn(const std::string& message) {
+  if (!g_quiet) std::cerr << "diffreg: warning: " << message << "\n";
+}
+void info(const std::string& message) {
+  if (!g_quiet) std::cerr << "diffreg: " << message << "\n";
+}
+void setQuiet(bool quiet) { g_quiet = quiet; }
+bool quiet() { return g_quiet; }
+
+}  // namespace diffreg

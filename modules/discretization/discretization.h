@@ -1,0 +1,97 @@
+// The one discretization every operator is built on (METHOD.md §1): per-element gradients
+// G_e, measures a_e, element adjacency with facet weights c_kl, stiffness K and lumped mass M,
+// for planar triangles (2D), surface triangles (3D thin shell) and tetrahedra. This is the only
+// numerical code that knows mesh types.
+#pragma once
+
+#include "mesh/mesh.h"
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <array>
+#include <vector>
+
+namespace diffreg {
+
+using SparseMatrix = Eigen::SparseMatrix<double>;
+
+/// An interior facet shared by elements k and l: an edge (triangles) or a triangle (tets).
+struct Facet {
+  int k = -1, l = -1;
+  double c = 0.0;                  ///< rest edge length or rest triangle area
+  std::array<int, 3> vertices{};   ///< the shared vertices
+  int size = 0;                    ///< 2 for an edge, 3 for a triangle
+};
+
+class Discretization {
+ public:
+  /// Builds everything from the rest mesh.
+  /// \throw InvalidMesh for a degenerate (zero-measure) element, naming it.
+  explicit Discretization(const Mesh& mesh);
+  /// Same, from raw arrays: positions n x 3 and elements m x 3 or m x 4.
+  Discretization(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements);
+
+  MeshKind kind() const { return kind_; }
+  /// Coordinate dimension d of positions and gradients: 2 for planar, else 3.
+  int dim() const { return dim_; }
+  /// Dimension of the element measure: 2 for triangles, 3 for tets.
+  int measureDim() const { return kind_ == MeshKind::Tet ? 3 : 2; }
+  int numVertices() const { return static_cast<int>(rest_.rows()); }
+  int numElements() const { return static_cast<int>(elements_.rows()); }
+  int elementSize() const { return static_cast<int>(elements_.cols()); }
+
+  /// Rest positions, n x d.
+  const Eigen::MatrixXd& rest() const { return rest_; }
+  const Eigen::MatrixXi& elements() const { return elements_; }
+  /// a_e: area or volume, physical units.
+  const Eigen::VectorXd& measures() const { return measures_; }
+  /// Gradients of element e's hat functions: elementSize() x d, row i for local vertex i.
+  /// Surfaces: tangential gradients in ambient 3D (orthogonal to the rest normal).
+  Eigen::Block<const Eigen::MatrixXd> gradient(int e) const {
+    return grads_.block(e * elementSize(), 0, elementSize(), dim_);
+  }
+  /// All gradients stacked: (m * elementSize()) x d.
+  const Eigen::MatrixXd& gradients() const { return grads_; }
+  /// Rest unit normals of surface triangles (m x 3); empty otherwise.
+  const Eigen::MatrixXd& normals() const { return normals_; }
+  /// Rest deformation gradient of the identity map for element e: I (planar, tet) or the
+  /// tangent projector I - n n^T (surface).
+  Eigen::MatrixXd restFrame(int e) const;
+
+  /// Interior facets with their weights c_kl (physical units).
+  const std::vector<Facet>& facets() const { return facets_; }
+  /// Cotangent stiffness K = sum_e a_e G_e G_e^T (n x n, positive semidefinite).
+  const SparseMatrix& stiffness() const { return K_; }
+  /// Barycentric lumped mass (a_e / 3 or a_e / 4 to each vertex).
+  const Eigen::VectorXd& lumpedMass() const { return mass_; }
+
+  /// Vertices referenced by at least one element; the others are left out of every system.
+  const std::vector<bool>& active() const { return active_; }
+  /// Component id per vertex (elements sharing a vertex are connected); -1 when unreferenced.
+  const std::vector<int>& component() const { return component_; }
+  int numComponents() const { return numComponents_; }
+
+  /// Mean rest edge length (the unit of METHOD.md §3) and bounding-box diagonal.
+  double meanEdgeLength() const { return meanEdge_; }
+  double boundingBoxDiagonal() const { return diagonal_; }
+
+ private:
+  void build(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements);
+
+  MeshKind kind_ = MeshKind::Surface;
+  int dim_ = 3;
+  Eigen::MatrixXd rest_;
+  Eigen::MatrixXi elements_;
+  Eigen::VectorXd measures_;
+  Eigen::MatrixXd grads_;
+  Eigen::MatrixXd normals_;
+  std::vector<Facet> facets_;
+  SparseMatrix K_;
+  Eigen::VectorXd mass_;
+  std::vector<bool> active_;
+  std::vector<int> component_;
+  int numComponents_ = 0;
+  double meanEdge_ = 0.0, diagonal_ = 0.0;
+};
+
+}  // namespace diffreg

@@ -1,0 +1,96 @@
+// Mesh types: an OpenMesh TriMesh (double precision) for planar and surface meshes, a plain
+// TetMesh for solids, and Mesh, which holds either one together with its named properties.
+#pragma once
+
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <Eigen/Core>
+
+#include <array>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace diffreg {
+
+struct TriTraits : public OpenMesh::DefaultTraits {
+  typedef OpenMesh::Vec3d Point;
+  typedef OpenMesh::Vec3d Normal;
+  VertexAttributes(OpenMesh::Attributes::Status);
+  FaceAttributes(OpenMesh::Attributes::Status);
+  EdgeAttributes(OpenMesh::Attributes::Status);
+};
+
+/// Triangle mesh for planar (2D, all z equal) and surface (3D thin shell) meshes.
+using TriMesh = OpenMesh::TriMesh_ArrayKernelT<TriTraits>;
+
+/// Tetrahedral mesh: points and positively oriented tets (0-based indices).
+struct TetMesh {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::array<int, 4>> tets;
+};
+
+enum class MeshKind { Planar, Surface, Tet };
+
+/// "planar", "surface" or "tet".
+const char* toString(MeshKind kind);
+
+/// Names of the properties operators exchange.
+namespace prop {
+inline constexpr const char* weight = "diffreg:weight";          ///< vertex, regularization weight
+inline constexpr const char* distortion = "diffreg:distortion";  ///< element, D_k
+inline constexpr const char* smoothness = "diffreg:smoothness";  ///< element, max facet ||e_k-e_l||^2
+}  // namespace prop
+
+/// A planar, surface or tet mesh with named scalar properties per vertex and per element.
+/// For triangle meshes the properties live on the OpenMesh mesh itself (double vertex or face
+/// properties with the same name), so a caller's OpenMesh code sees them.
+class Mesh {
+ public:
+  Mesh() = default;
+  /// A triangle mesh; kind is Planar when all z coordinates are equal, else Surface.
+  explicit Mesh(TriMesh tri);
+  explicit Mesh(TetMesh tet);
+
+  MeshKind kind() const { return kind_; }
+  bool isTet() const { return kind_ == MeshKind::Tet; }
+  TriMesh& tri() { return tri_; }
+  const TriMesh& tri() const { return tri_; }
+  TetMesh& tet() { return tet_; }
+  const TetMesh& tet() const { return tet_; }
+
+  int numVertices() const;
+  int numElements() const;  ///< faces or tets
+  /// Vertices per element: 3 or 4.
+  int elementSize() const { return isTet() ? 4 : 3; }
+
+  /// Vertex positions, n x 3 (planar meshes keep their constant z).
+  Eigen::MatrixXd positions() const;
+  /// Sets all vertex positions from an n x 3 (or n x 2 for planar meshes, z kept) matrix.
+  void setPositions(const Eigen::MatrixXd& positions);
+  /// Element vertex indices, m x 3 or m x 4.
+  Eigen::MatrixXi elements() const;
+  /// True for each vertex referenced by at least one element.
+  std::vector<bool> referenced() const;
+
+  bool hasVertexScalar(const std::string& name) const;
+  /// \throw MissingProperty when absent.
+  Eigen::VectorXd vertexScalar(const std::string& name) const;
+  void setVertexScalar(const std::string& name, const Eigen::VectorXd& values);
+  bool hasElementScalar(const std::string& name) const;
+  /// \throw MissingProperty when absent.
+  Eigen::VectorXd elementScalar(const std::string& name) const;
+  void setElementScalar(const std::string& name, const Eigen::VectorXd& values);
+  /// Names of the vertex and element scalar properties set through this class.
+  std::vector<std::string> vertexScalarNames() const;
+  std::vector<std::string> elementScalarNames() const;
+
+ private:
+  MeshKind kind_ = MeshKind::Surface;
+  TriMesh tri_;
+  TetMesh tet_;
+  // Tet meshes keep their properties here; triangle meshes on the OpenMesh mesh.
+  std::map<std::string, Eigen::VectorXd> tetVertexProps_, tetElementProps_;
+  std::vector<std::string> vertexNames_, elementNames_;
+};
+
+}  // namespace diffreg

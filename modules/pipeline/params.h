@@ -1,0 +1,61 @@
+// Parameter tables: each filter declares its parameters once (name, type, default, range,
+// help); the CLI, the help text and scripts are all generated from these tables.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace diffreg {
+
+enum class ParamType { Float, Int, Bool, Enum, String };
+const char* toString(ParamType type);
+
+struct ParamSpec {
+  std::string name;
+  ParamType type = ParamType::Float;
+  std::string defaultValue;          ///< as text, e.g. "0.01", "true", "second"
+  double min = -1e300, max = 1e300;  ///< inclusive range for Float and Int
+  std::vector<std::string> choices;  ///< Enum values
+  std::string help;
+};
+
+/// Validated values of one filter invocation, every parameter present (defaults filled in).
+class ParamMap {
+ public:
+  ParamMap() = default;
+  /// Validates `values` (name -> text) against `specs` and fills in defaults.
+  /// \throw InvalidParameter for an unknown name (listing the valid ones), a value of the wrong
+  ///        type, out of range, or not among the choices — naming the filter and parameter.
+  ParamMap(const std::string& filter, const std::vector<ParamSpec>& specs,
+           const std::map<std::string, std::string>& values);
+
+  /// Typed values. \throw std::logic_error for a name not in the filter's table (a bug in the
+  /// filter, not a user error).
+  double getFloat(const std::string& name) const;
+  int getInt(const std::string& name) const;
+  bool getBool(const std::string& name) const;
+  std::string getString(const std::string& name) const;  ///< Enum and String
+  /// The canonical text of every value (for reports and scripts).
+  const std::map<std::string, std::string>& text() const { return text_; }
+
+ private:
+  const std::string& raw(const std::string& name) const;
+  std::string filter_;
+  std::map<std::string, std::string> text_;
+};
+
+/// Shortest text that reads back (strtod) as exactly `value`, with a tidy exponent ("1e6",
+/// "1e-12", "0.01"): the canonical text of Float parameters.
+std::string formatNumber(double value);
+
+/// Whether a Float or Int parameter has a finite bound (min > -1e300 or max < 1e300).
+bool hasRange(const ParamSpec& spec);
+
+/// Parses "name key=value key=value ..." into a filter name and its raw values.
+/// Tokens are separated by whitespace; '...' or "..." keep whitespace inside a value.
+/// \throw InvalidParameter for an empty spec, a token without '=', a key given twice or an
+///        unterminated quote.
+std::pair<std::string, std::map<std::string, std::string>> parseFilterSpec(const std::string& spec);
+
+}  // namespace diffreg

@@ -1,0 +1,37 @@
+// A pipeline: filters applied in order to a Document, with a JSON report.
+#pragma once
+
+#include "pipeline/filter.h"
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace diffreg {
+
+struct Step {
+  std::string filter;
+  std::map<std::string, std::string> values;  ///< raw text values; defaults filled in on run
+};
+
+class Pipeline {
+ public:
+  explicit Pipeline(const Registry& registry = Registry::builtin()) : registry_(registry) {}
+  Pipeline& add(const std::string& filter, const std::map<std::string, std::string>& values = {});
+  const std::vector<Step>& steps() const { return steps_; }
+
+  /// Checks every step before any work: known filters, valid parameters, handles present where
+  /// needed, and each required property produced by the document or an earlier step.
+  /// \throw InvalidParameter / MissingProperty naming the step, the property and the filter
+  ///        that would provide it.
+  void check(const Document& doc) const;
+  /// check(), then applies every step. Returns the report: {"mesh": {...}, "filters": [...]}
+  /// with per filter name, params, seconds, symbolic, numeric, solves and its data.
+  nlohmann::json run(Document& doc) const;
+
+ private:
+  const Registry& registry_;
+  std::vector<Step> steps_;
+};
+
+}  // namespace diffreg
