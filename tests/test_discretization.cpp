@@ -1,0 +1,178 @@
+// Discretization (METHOD.md §1): properties of K, M, G_e, a_e and the facet adjacency.
+#include "discretization/discretization.h"
+
+#include "core/error.h"
+#include "mesh/shapes.h"
+
+#include <Eigen/Geometry>
+#include <catch2/catch.hpp>
+#include <map>
+#include <cmath>
+
+using namespace diffreg;
+
+namespace {
+
+// Deformation gradient of the rest positions: sum_i x_i g_i^T over the element's vertices.
+Eigen::MatrixXd restGradient(const Discretization& d, int e) {
+  Eigen::MatrixXd F = Eigen::MatrixXd::Zero(d.dim(), d.dim());
+  for (int i = 0; i < d.elementSize(); ++i)
+    F += d.rest().row(d.elements()(e, i)).transpose() * d.gradient(e).row(i);
+  return F;
+}
+
+std::vector<bool> boundaryVertices(const Discretization& d) {
+  // A vertex is interior when every facet through it is shared: count facet incidences.
+  std::vector<bool> boundary(d.numVertices(), false);
+  std::map<std::vector<int>, int> count;
+  const int k = d.elementSize();
+  for (int e = 0; e < d.numElements(); ++e)
+    for (int i = 0; i < k; ++i) {
+      std::vector<int> f;
+      for (int j = 0; j < k; ++j)
+        if (j != i) f.push_back(d.elements()(e, j));
+      std::sort(f.begin(), f.end());
+      ++count[f];
+    }
+  for (const auto& [f, c] : count)
+    if (c == 1)
+      for (int v : f) boundary[v] = true;
+  return boundary;
+}
+
+}  // namespace
+
+TEST_CASE("K annihilates constants and its rows sum to zero", "[discretization]") {
+  for (const Mesh& mesh : {makeRectangle(3, 2, 6, 4), makeCylinder(1, 2, 12, 6),
+                           makeSphere(1, 12, 8), makeTetBox(2, 1, 1, 4, 2, 2)}) {
+    const Discretization d(mesh);
+    const Eigen::VectorXd k1 = d.stiffness() * Eigen::VectorXd::Ones(d.numVertices());
+    CHECK(k1.cwiseAbs().maxCoeff() < 1e-10);
+    // Symmetric positive semidefinite: x^T K x >= 0 for a few random x.
+    for (int trial = 0; trial < 5; ++trial) {
+      const Eigen::VectorXd x = Eigen::VectorXd::Random(d.numVertices());
+      CHECK(x.dot(d.stiffness() * x) >= -1e-10);
+    }
+    const SparseMatrix asym = SparseMatrix(d.stiffness().transpose()) - d.stiffness();
+    CHECK(asym.norm() < 1e-12);
+  }
+}
+
+TEST_CASE("K reproduces linear functions at interior vertices", "[discretization]") {
+  for (const Mesh& mesh : {makeRectangle(3, 2, 6, 4), makeDisc(1, 5), makeTetBox(2, 1, 1, 4, 2, 2)}) {
+    const Discretization d(mesh);
+    const std::vector<bool> boundary = boundaryVertices(d);
+    Eigen::VectorXd f(d.numVertices());
+    for (int v = 0; v < d.numVertices(); ++v)
+      f(v) = 0.3 + 1.7 * d.rest()(v, 0) - 0.9 * d.rest()(v, 1) +
+             (d.dim() == 3 ? 2.1 * d.rest()(v, 2) : 0.0);
+    const Eigen::VectorXd Kf = d.stiffness() * f;
+    int interior = 0;
+    for (int v = 0; v < d.numVertices(); ++v)
+      if (!boundary[v]) {
+        ++interior;
+        CHECK(std::abs(Kf(v)) < 1e-10);
+      }
+    CHECK(interior > 0);
+  }
+}
+
+TEST_CASE("Element measures and lumped mass add up to the area or volume", "[discretization]") {
+  const Discretization rect(makeRectangle(3, 2, 6, 4));
+  CHECK(rect.measures().sum() == Approx(6.0).epsilon(1e-12));
+  CHECK(rect.lumpedMass().sum() == Approx(6.0).epsilon(1e-12));
+  const Discretization box(makeTetBox(2, 1, 0.5, 4, 2, 2));
+  CHECK(box.measures().sum() == Approx(1.0).epsilon(1e-12));
+  CHECK(box.lumpedMass().sum() == Approx(1.0).epsilon(1e-12));
+  CHECK((box.measures().array() > 0).all());
+  const Discretization cyl(makeCylinder(1, 2, 64, 8));
+  // An inscribed 64-gon prism: lateral area 2 * 64 * sin(pi / 64) * height.
+  CHECK(cyl.measures().sum() == Approx(2 * 64 * std::sin(M_PI / 64) * 2).epsilon(1e-10));
+}
+
+TEST_CASE("The rest deformation gradient is the identity or the tangent projector",
+          "[discretization]") {
+  for (const Mesh& mesh : {makeRectangle(3, 2, 3, 2), makeCylinder(1, 2, 10, 3),
+                           makeTetBox(1, 1, 1, 2, 2, 2)}) {
+    const Discretization d(mesh);
+    for (int e = 0; e < d.numElements(); ++e) {
+      const Eigen::MatrixXd F = restGradient(d, e);
+      CHECK((F - d.restFrame(e)).norm() < 1e-12);
+    }
+    if (d.kind() == MeshKind::Surface) {
+      // Tangential gradients: orthogonal to the rest normal.
+      for (int e = 0; e < d.numElements(); ++e)
+        CHECK((d.gradient(e) * d.normals().row(e).transpose()).norm() < 1e-12);
+    }
+  }
+}
+
+TEST_CASE("K equals the textbook cotangent formula on a triangle pair", "[discretization]") {
+  // Two triangles sharing edge (1, 2): 0 = (0,0), 1 = (2,0), 2 = (0.5,1.5), 3 = (2.5, 2).
+  Eigen::MatrixXd P(4, 3);
+  P << 0, 0, 0, 2, 0, 0, 0.5, 1.5, 0, 2.5, 2, 0;
+  Eigen::MatrixXi F(2, 3);
+  F << 0, 1, 2, 1, 3, 2;
+  const Discretization d(MeshKind::Planar, P, F);
+  auto cotAt = [&](int apex, int a, int b) {
+    const Eigen::Vector3d u = (P.row(a) - P.row(apex)).transpose();
+    const Eigen::Vector3d v = (P.row(b) - P.row(apex)).transpose();
+    return u.dot(v) / u.cross(v).norm();
+  };
+  Eigen::Matrix4d expected = Eigen::Matrix4d::Zero();
+  auto addEdge = [&](int i, int j, double w) {
+    expected(i, j) -= w;
+    expected(j, i) -= w;
+    expected(i, i) += w;
+    expected(j, j) += w;
+  };
+  addEdge(0, 1, 0.5 * cotAt(2, 0, 1));
+  addEdge(0, 2, 0.5 * cotAt(1, 0, 2));
+  addEdge(1, 2, 0.5 * (cotAt(0, 1, 2) + cotAt(3, 1, 2)));
+  addEdge(1, 3, 0.5 * cotAt(2, 1, 3));
+  addEdge(2, 3, 0.5 * cotAt(1, 2, 3));
+  CHECK((Eigen::MatrixXd(d.stiffness()) - expected).norm() < 1e-12);
+  REQUIRE(d.facets().size() == 1);
+  CHECK(d.facets()[0].c == Approx((P.row(1) - P.row(2)).norm()));
+  CHECK(d.facets()[0].size == 2);
+}
+
+TEST_CASE("Facets: interior edges for triangles, interior triangles for tets",
+          "[discretization]") {
+  const Discretization rect(makeRectangle(2, 1, 2, 1));
+  // 2 cells x 4 triangles: 8 faces; edges: interior = (3 * 8 - boundary 6) / 2 = 9.
+  CHECK(rect.facets().size() == 9);
+  const Discretization box(makeTetBox(1, 1, 1, 1, 1, 1));
+  // 6 tets in a cube: 24 facets, 12 on the boundary, so 6 interior triangles.
+  REQUIRE(box.facets().size() == 6);
+  for (const Facet& f : box.facets()) {
+    CHECK(f.size == 3);
+    CHECK(f.c > 0.0);
+  }
+}
+
+TEST_CASE("Components, unreferenced vertices and unit lengths", "[discretization]") {
+  Eigen::MatrixXd P(7, 3);
+  P << 0, 0, 0, 1, 0, 0, 0, 1, 0, 5, 5, 0, 6, 5, 0, 5, 6, 0, 9, 9, 0;
+  Eigen::MatrixXi F(2, 3);
+  F << 0, 1, 2, 3, 4, 5;
+  const Discretization d(MeshKind::Planar, P, F);
+  CHECK(d.numComponents() == 2);
+  CHECK(d.component()[0] != d.component()[3]);
+  CHECK_FALSE(d.active()[6]);
+  CHECK(d.component()[6] == -1);
+  CHECK(d.meanEdgeLength() == Approx((2 + std::sqrt(2.0)) / 3));
+  CHECK(d.boundingBoxDiagonal() == Approx(std::sqrt(2.0) * 6));
+}
+
+TEST_CASE("Degenerate elements are rejected, naming the element", "[discretization]") {
+  Eigen::MatrixXd P(4, 3);
+  P << 0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0;
+  Eigen::MatrixXi F(2, 3);
+  F << 0, 1, 3, 0, 1, 2;
+  CHECK_THROWS_AS(Discretization(MeshKind::Planar, P, F), InvalidMesh);
+  CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, F), Catch::Contains("triangle 1"));
+  Eigen::MatrixXi bad(1, 3);
+  bad << 0, 1, 9;
+  CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, bad), Catch::Contains("out of range"));
+}
