@@ -1,0 +1,249 @@
+#include "weights/diffusion.h"
+
+#include "core/error.h"
+
+#include <cmath>
+#include <functional>
+#include <queue>
+#include <sstream>
+
+namespace diffreg {
+
+const char* toString(DiffusionOrder order) {
+  switch (order) {
+    case DiffusionOrder::First: return "first";
+    case DiffusionOrder::Second: return "second";
+    case DiffusionOrder::ImplicitEuler: return "implicit_euler";
+  }
+  return "?";
+}
+
+const char* toString(TimeUnit unit) {
+  switch (unit) {
+    case TimeUnit::Absolute: return "absolute";
+    case TimeUnit::Diagonal: return "diagonal";
+    case TimeUnit::MeanEdge2: return "mean_edge2";
+  }
+  return "?";
+}
+
+DiffusionOrder parseDiffusionOrder(const std::string& name) {
+  for (auto o : {DiffusionOrder::First, DiffusionOrder::Second, DiffusionOrder::ImplicitEuler})
+    if (name == toString(o)) return o;
+  throw InvalidParameter("diffusion order '" + name +
+                         "' is not one of: first, second, implicit_euler");
+}
+
+TimeUnit parseTimeUnit(const std::string& name) {
+  for (auto u : {TimeUnit::Absolute, TimeUnit::Diagonal, TimeUnit::MeanEdge2})
+    if (name == toString(u)) return u;
+  throw InvalidParameter("time unit '" + name + "' is not one of: absolute, diagonal, mean_edge2");
+}
+
+DiffusionWeights::DiffusionWeights(const Discretization& disc, SolverBackend backend)
+    : disc_(disc), solver_(backend) {}
+
+void DiffusionWeights::setHandles(const std::vector<std::vector<int>>& vertexSets,
+                                  const std::vector<double>& ranges,
+                                  const std::vector<double>& magnitudes) {
+  const int n = disc_.numVertices();
+  if (ranges.size() != vertexSets.size() || magnitudes.size() != vertexSets.size())
+    throw InvalidParameter("weights: one range and one magnitude per handle are needed");
+  std::vector<int> seen(n, -1);
+  for (size_t j = 0; j < vertexSets.size(); ++j) {
+    const std::string h = "weights: handle " + std::to_string(j);
+    if (vertexSets[j].empty()) throw InvalidParameter(h + " selects no vertex");
+    if (!(ranges[j] > 0.0) || !std::isfinite(ranges[j]))
+      throw InvalidParameter(h + ": range must be > 0 (got " + std::to_string(ranges[j]) + ")");
+    if (!(magnitudes[j] >= 0.0) || !std::isfinite(magnitudes[j]))
+      throw InvalidParameter(h + ": magnitude must be >= 0 (got " +
+                             std::to_string(magnitudes[j]) + ")");
+    for (int v : vertexSets[j]) {
+      if (v < 0 || v >= n)
+        throw InvalidParameter(h + ": vertex " + std::to_string(v) + " out of range [0, " +
+                               std::to_string(n) + ")");
+      if (seen[v] >= 0 && seen[v] != static_cast<int>(j))
+        throw InvalidParameter(h + ": vertex " + std::to_string(v) + " is also in handle " +
+                               std::to_string(seen[v]));
+      seen[v] = static_cast<int>(j);
+    }
+  }
+  sets_ = vertexSets;
+  ranges_ = ranges;
+  magnitudes_ = magnitudes;
+  partitionDirty_ = matrixDirty_ = productDirty_ = true;
+}
+
+void DiffusionWeights::setHandles(const HandleSet& handles) {
+  std::vector<std::vector<int>> sets;
+  std::vector<double> r, m;
+  for (const Handle& h : handles.handles) {
+    sets.push_back(h.vertices);
+    r.push_back(h.range);
+    m.push_back(h.magnitude);
+  }
+  setHandles(sets, r, m);
+}
+
+void DiffusionWeights::setMagnitude(int handle, double m) {
+  if (handle < 0 || handle >= static_cast<int>(sets_.size()))
+    throw InvalidParameter("weights: no handle " + std::to_string(handle));
+  if (!(m >= 0.0) || !std::isfinite(m))
+    throw InvalidParameter("weights: handle " + std::to_string(handle) +
+                           ": magnitude must be >= 0");
+  magnitudes_[handle] = m;  // right-hand side only
+}
+
+void DiffusionWeights::setRange(int handle, double r) {
+  if (handle < 0 || handle >= static_cast<int>(sets_.size()))
+    throw InvalidParameter("weights: no handle " + std::to_string(handle));
+  if (!(r > 0.0) || !std::isfinite(r))
+    throw InvalidParameter("weights: handle " + std::to_string(handle) + ": range must be > 0");
+  if (r == ranges_[handle]) return;
+  ranges_[handle] = r;
+  matrixDirty_ = productDirty_ = true;  // N changes: numeric refactorization only
+}
+
+void DiffusionWeights::setParams(const DiffusionParams& params) {
+  if (!(params.t > 0.0) || !std::isfinite(params.t))
+    throw InvalidParameter("weights: t must be > 0 (got " + std::to_string(params.t) + ")");
+  if (params.order == DiffusionOrder::ImplicitEuler && params.steps < 1)
+    throw InvalidParameter("weights: steps must be >= 1 (got " + std::to_string(params.steps) +
+                           ")");
+  if (params.t != params_.t || params.unit != params_.unit || params.order != params_.order ||
+      params.steps != params_.steps)
+    matrixDirty_ = true;
+  params_ = params;
+}
+
+double DiffusionWeights::absoluteTime() const {
+  switch (params_.unit) {
+    case TimeUnit::Absolute: return params_.t;
+    case TimeUnit::Diagonal:
+      return params_.t * disc_.boundingBoxDiagonal() * disc_.boundingBoxDiagonal();
+    case TimeUnit::MeanEdge2: return params_.t * disc_.meanEdgeLength() * disc_.meanEdgeLength();
+  }
+  return params_.t;
+}
+
+Eigen::VectorXd DiffusionWeights::rangeField() const {
+  Eigen::VectorXd r = Eigen::VectorXd::Ones(disc_.numVertices());
+  for (size_t v = 0; v < owner_.size(); ++v)
+    if (owner_[v] >= 0) r(v) = ranges_[owner_[v]];
+  return r;
+}
+
+// Fixed unknowns (handles, unreferenced vertices), K's blocks, and the nearest handle of every
+// vertex by a multi-source Dijkstra along mesh edges (the pattern of K).
+void DiffusionWeights::preparePartition() {
+  const int n = disc_.numVertices();
+  std::vector<bool> fixed(n, false);
+  for (int v = 0; v < n; ++v) fixed[v] = !disc_.active()[v];
+  owner_.assign(n, -1);
+  std::vector<double> dist(n, INFINITY);
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+  for (size_t j = 0; j < sets_.size(); ++j)
+    for (int v : sets_[j]) {
+      fixed[v] = true;
+      owner_[v] = static_cast<int>(j);
+      dist[v] = 0.0;
+      queue.emplace(0.0, v);
+    }
+  const SparseMatrix& K = disc_.stiffness();
+  const Eigen::MatrixXd& X = disc_.rest();
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > dist[v]) continue;
+    for (SparseMatrix::InnerIterator it(K, v); it; ++it) {
+      const int w = static_cast<int>(it.row());
+      const double dw = d + (X.row(v) - X.row(w)).norm();
+      if (dw < dist[w]) {
+        dist[w] = dw;
+        owner_[w] = owner_[v];
+        queue.emplace(dw, w);
+      }
+    }
+  }
+  partition_ = Partition(fixed);
+  KFF_ = partition_.freeFree(K);
+  KFJ_ = partition_.freeFixed(K);
+  partitionDirty_ = false;
+}
+
+// The system matrix of METHOD.md §4 for the current order, t and r.
+void DiffusionWeights::prepareMatrix(bool analyzeAgain) {
+  const Eigen::VectorXd& M = disc_.lumpedMass();
+  const Eigen::VectorXd r = rangeField();
+  const int nf = partition_.numFree();
+  N_.resize(nf);
+  for (int i = 0; i < nf; ++i) {
+    const int v = partition_.freeIds()[i];
+    N_(i) = M(v) / r(v);
+  }
+  SparseMatrix Nmat(nf, nf);
+  Nmat.reserve(Eigen::VectorXi::Constant(nf, 1));
+  for (int i = 0; i < nf; ++i) Nmat.insert(i, i) = N_(i);
+  const double t = absoluteTime();
+  SparseMatrix A;
+  switch (params_.order) {
+    case DiffusionOrder::First: A = Nmat + t * KFF_; break;
+    case DiffusionOrder::ImplicitEuler:
+      A = Nmat + (t / params_.steps) * KFF_;
+      break;
+    case DiffusionOrder::Second:
+      if (productDirty_) {
+        KNK_ = SparseMatrix(KFF_ * N_.cwiseInverse().asDiagonal()) * KFF_;
+        productDirty_ = false;
+      }
+      A = Nmat + t * KFF_ + (0.5 * t * t) * KNK_;
+      break;
+  }
+  solver_.compute(A, analyzeAgain);
+  matrixDirty_ = false;
+}
+
+Eigen::VectorXd DiffusionWeights::solve() {
+  if (sets_.empty()) throw InvalidParameter("weights: no handles (the weights need at least one)");
+  bool newPattern = false;
+  if (partitionDirty_) {
+    preparePartition();
+    newPattern = true;
+  }
+  if (matrixDirty_ || newPattern) prepareMatrix(newPattern);
+
+  // Dirichlet values g: m_j on handle j, 0 on unreferenced vertices.
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
+  for (size_t j = 0; j < sets_.size(); ++j)
+    for (int v : sets_[j]) g(partition_.local(v)) = magnitudes_[j];
+  const Eigen::VectorXd b = -(KFJ_ * g);
+  const double t = absoluteTime();
+  Eigen::VectorXd x;
+  switch (params_.order) {
+    case DiffusionOrder::First: x = solver_.solve(t * b); break;
+    case DiffusionOrder::Second: {
+      const Eigen::VectorXd Nb = b.cwiseQuotient(N_);
+      x = solver_.solve(t * b + (0.5 * t * t) * (KFF_ * Nb));
+      break;
+    }
+    case DiffusionOrder::ImplicitEuler: {
+      const double h = t / params_.steps;
+      x = Eigen::VectorXd::Zero(partition_.numFree());
+      for (int s = 0; s < params_.steps; ++s)
+        x = solver_.solve(N_.cwiseProduct(x) + h * b);
+      break;
+    }
+  }
+  return partition_.scatter(x, g);
+}
+
+Eigen::VectorXd diffuseWeights(const Discretization& disc, const HandleSet& handles,
+                               const DiffusionParams& params) {
+  DiffusionWeights session(disc);
+  session.setHandles(handles);
+  session.setParams(params);
+  return session.solve();
+}
+
+}  // namespace diffreg
