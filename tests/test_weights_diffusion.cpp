@@ -33,11 +33,13 @@ int nearest(const Discretization& d, Eigen::Vector3d p) {
   return best;
 }
 
+// The raw scheme (no clipping), so the tests see each scheme's own properties.
 DiffusionParams params(double t, DiffusionOrder order, TimeUnit unit = TimeUnit::Absolute) {
   DiffusionParams p;
   p.t = t;
   p.order = order;
   p.unit = unit;
+  p.clip = false;
   return p;
 }
 
@@ -206,6 +208,22 @@ TEST_CASE("Weights on surfaces and solids stay in range and equal m_j at handles
     CHECK(x.maxCoeff() <= 0.7 + 1e-3);
     CHECK(x.sum() > 1.05 * 0.7 * h.size());  // it did spread
   }
+}
+
+TEST_CASE("Clipping keeps second-order weights within [0, max m_j]", "[weights]") {
+  const Discretization d(makeUShape(1.0, 1.0, 4.0, 4));
+  DiffusionWeights w(d);
+  w.setHandles({near(d, {0.5, 4.0, 0}, 0.01), near(d, {2.5, 0.0, 0}, 0.3)}, {1, 1}, {0.9, 0.6});
+  w.setParams(params(0.02, DiffusionOrder::Second));
+  const Eigen::VectorXd raw = w.solve();
+  REQUIRE(raw.minCoeff() < 0.0);  // the case does exercise the clipping
+  DiffusionParams clipped = w.params();
+  clipped.clip = true;
+  w.setParams(clipped);
+  const Eigen::VectorXd x = w.solve();
+  CHECK(x.minCoeff() >= 0.0);
+  CHECK(x.maxCoeff() <= 0.9);
+  CHECK((x - raw).cwiseAbs().maxCoeff() < 1e-3);  // only the scheme's small oscillations go
 }
 
 TEST_CASE("Bad handles and parameters are clear errors", "[weights]") {

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <queue>
@@ -234,6 +235,10 @@ Eigen::VectorXd DiffusionWeights::solve() {
         x = solver_.solve(N_.cwiseProduct(x) + h * b);
       break;
     }
+  }
+  if (params_.clip && x.size() > 0) {
+    const double top = *std::max_element(magnitudes_.begin(), magnitudes_.end());
+    x = x.cwiseMax(0.0).cwiseMin(top);
   }
   return partition_.scatter(x, g);
 }

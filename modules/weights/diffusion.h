@@ -33,6 +33,10 @@ struct DiffusionParams {
   TimeUnit unit = TimeUnit::Diagonal;
   DiffusionOrder order = DiffusionOrder::Second;
   int steps = 100;  ///< implicit Euler only
+  /// Clip the result to [0, max m_j]. The first-order scheme already stays there (maximum
+  /// principle); the second-order matrix is not an M-matrix and over/undershoots by up to ~1e-3
+  /// (METHOD.md §4), which would otherwise reach the regularization as a weight outside [0, 1].
+  bool clip = true;
 };
 
 /// An editing session for the weights that reuses factorizations as the paper's Fig. 5 says:
@@ -57,7 +61,8 @@ class DiffusionWeights {
 
   /// t in length^2 after applying the unit.
   double absoluteTime() const;
-  /// Per-vertex weights x (size n): m_j at handle vertices, 0 at unreferenced vertices.
+  /// Per-vertex weights x (size n): m_j at handle vertices, 0 at unreferenced vertices,
+  /// clipped to [0, max m_j] unless params().clip is off.
   Eigen::VectorXd solve();
   const SolverStats& stats() const { return solver_.stats(); }
   /// Per-vertex range factor r_i actually used: each vertex takes the r_j of the handle nearest
