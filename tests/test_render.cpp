@@ -1,7 +1,5 @@
 // The software renderer: PNG files, colours at known pixels, the colour bar, handle markers
 // (including occlusion), tet boundaries, shared framing, the bitmap font and error cases.
-// OpenMesh's PropertyT<Vec3d>::push_back trips GCC 12's -Wmaybe-uninitialized.
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
 #include "core/colormap.h"
 #include "core/error.h"

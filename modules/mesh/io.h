@@ -5,6 +5,7 @@
 #include "mesh/mesh.h"
 
 #include <string>
+#include <vector>
 
 namespace diffreg {
 
@@ -34,6 +35,11 @@ struct WriteOptions {
 /// renamed into place, so a failed write leaves any existing file untouched.
 /// \throw IoError unknown or unsupported extension for the mesh kind, write failure.
 void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
+
+/// The extensions writeMesh accepts for a mesh kind ("obj", "off", "ply", "om" or "mesh", "ply").
+std::vector<std::string> writableExtensions(MeshKind kind);
+/// \throw IoError when writeMesh cannot write a mesh of `kind` under the extension of `path`.
+void checkWritable(const std::string& path, MeshKind kind);
 
 /// Lower-case extension of `path` without the dot ("obj", "mesh", ...), "" when none.
 std::string extensionOf(const std::string& path);

@@ -1,9 +1,4 @@
-// OpenMesh's default-constructed points are deliberately uninitialized, which GCC reports from
-// inside <vector> when add_vertex is inlined; the warning is located in the system headers.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include "mesh/shapes.h"
-#pragma GCC diagnostic pop
 
 #include "core/error.h"
 

@@ -1,0 +1,342 @@
+#include "handles/handles.h"
+
+#include "core/error.h"
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace diffreg {
+namespace {
+
+using json = nlohmann::json;
+
+const std::vector<std::string> kHandleKeys = {"name",    "vertices",  "nearest",
+                                              "within",  "translate", "rotate",
+                                              "targets", "range",     "magnitude"};
+
+std::string join(const std::vector<std::string>& words) {
+  std::string out;
+  for (const auto& w : words) out += (out.empty() ? "" : ", ") + w;
+  return out;
+}
+
+/// Parses one handle file against a mesh; every error names the source and the handle.
+class Parser {
+ public:
+  Parser(const Mesh& mesh, std::string source)
+      : source_(std::move(source)),
+        rest_(mesh.positions()),
+        used_(mesh.referenced()),
+        planar_(mesh.kind() == MeshKind::Planar) {
+    if (rest_.rows() > 0) {
+      planeZ_ = rest_(0, 2);
+      tol_ = 1e-9 * std::max(1.0, (rest_.colwise().maxCoeff() - rest_.colwise().minCoeff()).norm());
+    }
+  }
+
+  HandleSet parse(const std::string& text) {
+    json root;
+    try {
+      root = json::parse(text);
+    } catch (const json::exception& e) {  // parse errors, number overflow
+      std::string what = e.what();
+      const size_t bracket = what.find("] ");
+      if (bracket != std::string::npos) what = what.substr(bracket + 2);
+      std::replace(what.begin(), what.end(), '\n', ' ');
+      throw InvalidParameter(source_ + ": malformed JSON: " + what);
+    }
+    if (!root.is_object() || !root.contains("handles") || !root["handles"].is_array()) {
+      throw InvalidParameter(source_ +
+                             ": expected an object {\"handles\": [...]} at the top level");
+    }
+    for (const auto& item : root.items()) {
+      if (item.key() != "handles") {
+        throw InvalidParameter(source_ + ": unknown key '" + item.key() + "' (valid: handles)");
+      }
+    }
+    HandleSet set;
+    const json& list = root["handles"];
+    for (size_t i = 0; i < list.size(); ++i) set.handles.push_back(parseHandle(list[i], i));
+
+    std::set<std::string> names;
+    std::map<int, size_t> owner;
+    for (size_t i = 0; i < set.handles.size(); ++i) {
+      const Handle& h = set.handles[i];
+      if (!names.insert(h.name).second) {
+        throw InvalidParameter(source_ + ": two handles are named '" + h.name + "'");
+      }
+      for (int v : h.vertices) {
+        const auto [it, fresh] = owner.emplace(v, i);
+        if (!fresh) {
+          throw InvalidParameter(source_ + ": vertex " + std::to_string(v) + " is in handles '" +
+                                 set.handles[it->second].name + "' and '" + h.name + "'");
+        }
+      }
+    }
+    return set;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& message) const {
+    throw InvalidParameter(source_ + ": handle " + label_ + ": " + message);
+  }
+
+  double number(const json& j, const std::string& what) const {
+    if (!j.is_number()) fail(what + " must be a number");
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) fail(what + " is not finite");
+    return v;
+  }
+
+  /// A 3-vector, or a 2-vector on a planar mesh (z = `z2`).
+  Eigen::Vector3d vec(const json& j, const std::string& what, double z2) const {
+    const bool size2 = j.is_array() && j.size() == 2;
+    if (!j.is_array() || (j.size() != 3 && !size2)) {
+      fail(what + " must be [x, y, z]" + (planar_ ? " or [x, y]" : ""));
+    }
+    if (size2 && !planar_) fail(what + " needs 3 entries (2 only on planar meshes)");
+    Eigen::Vector3d v(0, 0, z2);
+    for (size_t c = 0; c < j.size(); ++c) v[c] = number(j[c], what);
+    return v;
+  }
+
+  /// The referenced vertex nearest to p.
+  int nearest(const Eigen::Vector3d& p) const {
+    int best = -1;
+    double bestDist = 0.0;
+    for (int v = 0; v < rest_.rows(); ++v) {
+      if (!used_[v]) continue;
+      const double d = (rest_.row(v).transpose() - p).squaredNorm();
+      if (best < 0 || d < bestDist) {
+        best = v;
+        bestDist = d;
+      }
+    }
+    if (best < 0) fail("the mesh has no referenced vertices");
+    return best;
+  }
+
+  void checkPlanar(const Eigen::Vector3d& target, const std::string& what) const {
+    if (planar_ && std::abs(target[2] - planeZ_) > tol_) {
+      fail(what + " leaves the plane of the planar mesh (z must be " + std::to_string(planeZ_) +
+           ")");
+    }
+  }
+
+  std::vector<int> select(const json& h) const {
+    std::vector<int> ids;
+    if (h.contains("vertices")) {
+      const json& list = h["vertices"];
+      if (!list.is_array()) fail("\"vertices\" must be an array of vertex ids");
+      for (const json& id : list) {
+        if (!id.is_number_integer()) fail("vertex ids must be integers, got " + id.dump());
+        const long long v = id.get<long long>();
+        if (v < 0 || v >= rest_.rows()) {
+          fail("vertex id " + std::to_string(v) + " out of range 0.." +
+               std::to_string(rest_.rows() - 1));
+        }
+        if (!used_[v]) fail("vertex " + std::to_string(v) + " is not part of any element");
+        ids.push_back(static_cast<int>(v));
+      }
+    } else if (h.contains("nearest")) {
+      const json& n = h["nearest"];
+      if (!n.is_array()) fail("\"nearest\" must be a point or a list of points");
+      const bool many = !n.empty() && n[0].is_array();
+      for (size_t i = 0; i < (many ? n.size() : (n.empty() ? 0 : 1)); ++i) {
+        ids.push_back(nearest(vec(many ? n[i] : n, "\"nearest\" point", planeZ_)));
+      }
+    } else {
+      const json& w = h["within"];
+      if (!w.is_object()) fail("\"within\" must be {\"center\": [..], \"radius\": r}");
+      for (const auto& item : w.items()) {
+        if (item.key() != "center" && item.key() != "radius") {
+          fail("unknown key '" + item.key() + "' in \"within\" (valid: center, radius)");
+        }
+      }
+      if (!w.contains("center") || !w.contains("radius")) {
+        fail("\"within\" needs both \"center\" and \"radius\"");
+      }
+      const Eigen::Vector3d c = vec(w["center"], "\"within\" center", planeZ_);
+      const double r = number(w["radius"], "\"within\" radius");
+      if (r <= 0.0) fail("\"within\" radius must be > 0");
+      for (int v = 0; v < rest_.rows(); ++v) {
+        if (used_[v] && (rest_.row(v).transpose() - c).norm() <= r) ids.push_back(v);
+      }
+      if (ids.empty()) fail("no vertex lies within radius " + std::to_string(r) + " of the center");
+    }
+    if (ids.empty()) fail("empty handle (no vertices selected)");
+    std::vector<int> sorted = ids;
+    std::sort(sorted.begin(), sorted.end());
+    const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
+    if (dup != sorted.end()) fail("vertex " + std::to_string(*dup) + " is selected twice");
+    return ids;
+  }
+
+  Eigen::MatrixXd move(const json& h, const std::vector<int>& ids) const {
+    const int k = static_cast<int>(ids.size());
+    Eigen::MatrixXd targets(k, 3);
+    for (int i = 0; i < k; ++i) targets.row(i) = rest_.row(ids[i]);
+    if (h.contains("translate")) {
+      const Eigen::Vector3d d = vec(h["translate"], "\"translate\"", 0.0);
+      checkPlanar(Eigen::Vector3d(0, 0, planeZ_ + d[2]), "\"translate\"");
+      targets.rowwise() += d.transpose();
+    } else if (h.contains("rotate")) {
+      const json& r = h["rotate"];
+      if (!r.is_object()) fail("\"rotate\" must be {\"center\", \"axis\", \"degrees\"}");
+      for (const auto& item : r.items()) {
+        if (item.key() != "center" && item.key() != "axis" && item.key() != "degrees") {
+          fail("unknown key '" + item.key() + "' in \"rotate\" (valid: center, axis, degrees)");
+        }
+      }
+      if (!r.contains("degrees")) fail("\"rotate\" needs \"degrees\"");
+      const double degrees = number(r["degrees"], "\"rotate\" degrees");
+      // Default centre: the centroid of the handle's rest positions.
+      Eigen::Vector3d center = targets.colwise().mean().transpose();
+      if (r.contains("center")) center = vec(r["center"], "\"rotate\" center", planeZ_);
+      Eigen::Vector3d axis(0, 0, 1);
+      if (r.contains("axis")) {
+        axis = vec(r["axis"], "\"rotate\" axis", 1.0);
+      } else if (!planar_) {
+        fail("\"rotate\" needs an \"axis\" on a non-planar mesh");
+      }
+      if (axis.norm() == 0.0) fail("\"rotate\" axis is zero");
+      axis.normalize();
+      if (planar_ && std::abs(std::abs(axis[2]) - 1.0) > 1e-12) {
+        fail("on a planar mesh the \"rotate\" axis must be the z axis");
+      }
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(degrees * M_PI / 180.0, axis).toRotationMatrix();
+      for (int i = 0; i < k; ++i) {
+        const Eigen::Vector3d p = targets.row(i).transpose();
+        targets.row(i) = (center + R * (p - center)).transpose();
+      }
+      if (planar_) targets.col(2).setConstant(planeZ_);
+    } else if (h.contains("targets")) {
+      const json& t = h["targets"];
+      if (!t.is_array()) fail("\"targets\" must be a list of points");
+      if (static_cast<int>(t.size()) != k) {
+        fail(std::to_string(t.size()) + " targets for " + std::to_string(k) + " selected vertices");
+      }
+      for (int i = 0; i < k; ++i) {
+        const Eigen::Vector3d p = vec(t[i], "target " + std::to_string(i), rest_(ids[i], 2));
+        checkPlanar(p, "target " + std::to_string(i));
+        targets.row(i) = p.transpose();
+      }
+    }
+    return targets;
+  }
+
+  Handle parseHandle(const json& h, size_t index) {
+    label_ = "#" + std::to_string(index);
+    if (!h.is_object()) fail("must be an object");
+    Handle out;
+    out.name = "handle" + std::to_string(index);
+    if (h.contains("name")) {
+      if (!h["name"].is_string()) fail("\"name\" must be a string");
+      out.name = h["name"].get<std::string>();
+    }
+    label_ = "'" + out.name + "' (#" + std::to_string(index) + ")";
+    for (const auto& item : h.items()) {
+      if (std::find(kHandleKeys.begin(), kHandleKeys.end(), item.key()) == kHandleKeys.end()) {
+        fail("unknown key '" + item.key() + "' (valid: " + join(kHandleKeys) + ")");
+      }
+    }
+    const int selections = h.contains("vertices") + h.contains("nearest") + h.contains("within");
+    if (selections != 1) {
+      fail(std::string(selections == 0 ? "no" : "more than one") +
+           " selection: give exactly one of \"vertices\", \"nearest\", \"within\"");
+    }
+    const int motions = h.contains("translate") + h.contains("rotate") + h.contains("targets");
+    if (motions > 1) fail("give at most one of \"translate\", \"rotate\", \"targets\"");
+
+    out.vertices = select(h);
+    out.targets = move(h, out.vertices);
+    if (h.contains("range")) out.range = number(h["range"], "\"range\"");
+    if (h.contains("magnitude")) out.magnitude = number(h["magnitude"], "\"magnitude\"");
+    if (!(out.range > 0.0)) fail("\"range\" must be > 0, got " + std::to_string(out.range));
+    if (!(out.magnitude >= 0.0)) {
+      fail("\"magnitude\" must be >= 0, got " + std::to_string(out.magnitude));
+    }
+    return out;
+  }
+
+  std::string source_;
+  Eigen::MatrixXd rest_;
+  std::vector<bool> used_;
+  bool planar_;
+  double planeZ_ = 0.0;
+  double tol_ = 1e-9;
+  std::string label_;
+};
+
+}  // namespace
+
+std::vector<int> HandleSet::allVertices() const {
+  std::vector<int> out;
+  for (const Handle& h : handles) out.insert(out.end(), h.vertices.begin(), h.vertices.end());
+  return out;
+}
+
+std::vector<int> HandleSet::handleOfVertex(int numVertices) const {
+  std::vector<int> out(std::max(0, numVertices), -1);
+  for (size_t i = 0; i < handles.size(); ++i) {
+    for (int v : handles[i].vertices) {
+      if (v < 0 || v >= numVertices) {
+        throw InvalidParameter("handle '" + handles[i].name + "': vertex " + std::to_string(v) +
+                               " out of range for a mesh with " + std::to_string(numVertices) +
+                               " vertices");
+      }
+      out[v] = static_cast<int>(i);
+    }
+  }
+  return out;
+}
+
+HandleSet readHandles(const std::string& path, const Mesh& mesh) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw IoError("cannot open handle file '" + path + "': no such file");
+  }
+  if (std::filesystem::is_directory(path, ec)) {
+    throw IoError("cannot read handle file '" + path + "': is a directory");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError("cannot open handle file '" + path + "'");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw IoError("cannot read handle file '" + path + "'");
+  return parseHandles(text.str(), mesh, path);
+}
+
+HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source) {
+  return Parser(mesh, source).parse(jsonText);
+}
+
+std::string handlesToJson(const HandleSet& handles) {
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (const Handle& h : handles.handles) {
+    nlohmann::ordered_json targets = nlohmann::ordered_json::array();
+    for (int i = 0; i < h.targets.rows(); ++i) {
+      targets.push_back({h.targets(i, 0), h.targets(i, 1), h.targets(i, 2)});
+    }
+    nlohmann::ordered_json item;
+    item["name"] = h.name;
+    item["vertices"] = h.vertices;
+    item["targets"] = targets;
+    item["range"] = h.range;
+    item["magnitude"] = h.magnitude;
+    list.push_back(item);
+  }
+  nlohmann::ordered_json root;
+  root["handles"] = list;
+  return root.dump(2) + "\n";
+}
+
+}  // namespace diffreg

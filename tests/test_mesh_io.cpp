@@ -1,0 +1,600 @@
+// Reading, validating and writing meshes (modules/mesh/io.h).
+
+#include "core/colormap.h"
+#include "core/error.h"
+#include "mesh/io.h"
+
+#include <Eigen/Geometry>
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+using namespace diffreg;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// A fresh directory under the system temp dir, removed at the end of the test.
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    std::string tmpl = (fs::temp_directory_path() / "diffreg-mesh-io-XXXXXX").string();
+    REQUIRE(mkdtemp(tmpl.data()) != nullptr);
+    path = tmpl;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string file(const std::string& name, const std::string& text) const {
+    const std::string p = (path / name).string();
+    std::ofstream(p) << text;
+    return p;
+  }
+  std::string operator/(const std::string& name) const { return (path / name).string(); }
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// The message of the exception of type E that `f` throws (fails when it throws none).
+template <class E, class F>
+std::string messageOf(F&& f) {
+  try {
+    f();
+  } catch (const E& e) {
+    const std::string what = e.what();
+    CHECK(what.find('\n') == std::string::npos);  // one line
+    return what;
+  }
+  FAIL("no exception of the expected type");
+  return "";
+}
+
+const char* kTetFile =
+    "MeshVersionFormatted 2\n"
+    "Dimension 3\n"
+    "Vertices\n5\n"
+    "0 0 0 1\n1 0 0 1\n0 1 0 1\n0 0 1 1\n1 1 1 1\n"
+    "Tetrahedra\n2\n"
+    "1 2 3 4 0\n2 5 3 4 0\n"
+    "End\n";
+
+double totalVolume(const Mesh& mesh) {
+  const Eigen::MatrixXd p = mesh.positions();
+  double v = 0.0;
+  for (const auto& t : mesh.tet().tets) {
+    const Eigen::Vector3d a = p.row(t[0]), b = p.row(t[1]), c = p.row(t[2]), d = p.row(t[3]);
+    v += (b - a).dot((c - a).cross(d - a)) / 6.0;
+  }
+  return v;
+}
+
+/// A minimal ASCII PLY parser: element name -> property names, and rows of numbers.
+struct Ply {
+  std::map<std::string, std::vector<std::string>> props;  // scalar properties per element
+  std::map<std::string, std::vector<std::vector<double>>> rows;
+};
+
+Ply parsePly(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, current;
+  std::vector<std::pair<std::string, int>> order;
+  Ply ply;
+  std::getline(in, line);
+  REQUIRE(line == "ply");
+  while (std::getline(in, line) && line != "end_header") {
+    std::istringstream ls(line);
+    std::string key;
+    ls >> key;
+    if (key == "format") {
+      std::string fmt;
+      ls >> fmt;
+      REQUIRE(fmt == "ascii");
+    } else if (key == "element") {
+      int n = 0;
+      ls >> current >> n;
+      order.push_back({current, n});
+    } else if (key == "property") {
+      std::string type, name;
+      ls >> type;
+      if (type == "list") {
+        std::string a, b;
+        ls >> a >> b;
+      }
+      ls >> name;
+      ply.props[current].push_back(name);
+    }
+  }
+  for (const auto& [name, n] : order) {
+    for (int i = 0; i < n; ++i) {
+      std::getline(in, line);
+      std::istringstream ls(line);
+      std::vector<double> row;
+      double x;
+      while (ls >> x) row.push_back(x);
+      ply.rows[name].push_back(row);
+    }
+  }
+  return ply;
+}
+
+}  // namespace
+
+TEST_CASE("extensionOf", "[mesh][io]") {
+  CHECK(extensionOf("a/b/Bunny.OBJ") == "obj");
+  CHECK(extensionOf("x.tar.mesh") == "mesh");
+  CHECK(extensionOf("dir.d/file") == "");
+  CHECK(extensionOf(".hidden") == "");
+  CHECK(extensionOf("noext") == "");
+}
+
+TEST_CASE("the shared meshes read with the documented kinds and counts", "[mesh][io]") {
+  const fs::path dir = DIFFREG_SHARED_MESHES;
+  if (!fs::exists(dir)) {
+    WARN("shared meshes not found at " << dir << "; skipping");
+    return;
+  }
+  struct Case {
+    const char* file;
+    MeshKind kind;
+    int vertices, elements;
+  };
+  const Case cases[] = {
+      {"planar-woody.obj", MeshKind::Planar, 694, 1267},
+      {"planar-alligator.obj", MeshKind::Planar, 3208, 5981},
+      {"planar-rectangle-sheet.obj", MeshKind::Planar, 913, 1708},
+      {"planar-octopus.obj", MeshKind::Planar, 2731, 4868},
+      {"planar-crocodile.obj", MeshKind::Planar, 26045, 50579},
+      {"surface-decimated-knight.off", MeshKind::Surface, 502, 1000},
+      {"surface-fertility.off", MeshKind::Surface, 4494, 9000},
+      {"surface-rocker-arm.obj", MeshKind::Surface, 10044, 20088},
+      {"surface-beetle-20k.off", MeshKind::Surface, 19887, 38656},
+      {"surface-armadillo.obj", MeshKind::Surface, 43243, 86482},
+      {"tet-bar.mesh", MeshKind::Tet, 3842, 14114},
+      {"tet-decimated-knight.mesh", MeshKind::Tet, 1822, 5452},
+      {"tet-monkey.mesh", MeshKind::Tet, 21010, 86965},
+  };
+  for (const Case& c : cases) {
+    const fs::path p = dir / c.file;
+    if (!fs::exists(p)) {
+      WARN(p << " not found; skipping");
+      continue;
+    }
+    INFO(c.file);
+    const Mesh mesh = readMesh(p.string());
+    CHECK(mesh.kind() == c.kind);
+    CHECK(mesh.numVertices() == c.vertices);
+    CHECK(mesh.numElements() == c.elements);
+  }
+}
+
+TEST_CASE("tet-bar: volume 5 and 5788 outward boundary faces in the PLY", "[mesh][io]") {
+  const fs::path p = fs::path(DIFFREG_SHARED_MESHES) / "tet-bar.mesh";
+  if (!fs::exists(p)) {
+    WARN(p << " not found; skipping");
+    return;
+  }
+  const Mesh mesh = readMesh(p.string());
+  CHECK(totalVolume(mesh) == Approx(5.0).epsilon(1e-9));
+  TempDir tmp;
+  writeMesh(tmp / "bar.ply", mesh);
+  const Ply ply = parsePly(tmp / "bar.ply");
+  REQUIRE(ply.rows.at("face").size() == 5788u);
+  // Outward orientation: the divergence theorem gives the (positive) enclosed volume.
+  double v = 0.0;
+  const auto& pts = ply.rows.at("vertex");
+  for (const auto& f : ply.rows.at("face")) {
+    const Eigen::Vector3d a(pts[f[1]][0], pts[f[1]][1], pts[f[1]][2]);
+    const Eigen::Vector3d b(pts[f[2]][0], pts[f[2]][1], pts[f[2]][2]);
+    const Eigen::Vector3d c(pts[f[3]][0], pts[f[3]][1], pts[f[3]][2]);
+    v += a.dot(b.cross(c)) / 6.0;
+  }
+  CHECK(v == Approx(5.0).epsilon(1e-5));
+}
+
+TEST_CASE("the non-manifold beetle reads, its bad faces split off", "[mesh][io]") {
+  const fs::path p = fs::path(DIFFREG_SHARED_MESHES) / "surface-beetle-1k.obj";
+  if (!fs::exists(p)) {
+    WARN(p << " not found; skipping");
+    return;
+  }
+  const Mesh mesh = readMesh(p.string());
+  CHECK(mesh.kind() == MeshKind::Surface);
+  CHECK(mesh.numElements() == 2053);
+  // File vertices keep their numbering; copies for split-off faces come after them.
+  CHECK(mesh.numVertices() > 1148);
+  const Eigen::MatrixXd pos = mesh.positions();
+  for (int i = 1148; i < mesh.numVertices(); ++i) {
+    bool copy = false;
+    for (int j = 0; j < 1148 && !copy; ++j) copy = pos.row(i) == pos.row(j);
+    CHECK(copy);
+  }
+}
+
+TEST_CASE("OBJ/OFF/PLY errors name the file and the element", "[mesh][io]") {
+  TempDir tmp;
+  const std::string quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+
+  SECTION("missing file") {
+    const std::string p = tmp / "missing.obj";
+    CHECK_THAT(messageOf<IoError>([&] { readMesh(p); }), Catch::Contains(p));
+  }
+  SECTION("a directory") {
+    const std::string p = tmp / "dir.obj";
+    fs::create_directory(p);
+    CHECK_THAT(messageOf<IoError>([&] { readMesh(p); }), Catch::Contains(p));
+  }
+  SECTION("unknown extension lists the supported ones") {
+    const std::string p = tmp.file("a.xyz", "1 2 3\n");
+    const std::string m = messageOf<IoError>([&] { readMesh(p); });
+    CHECK_THAT(m, Catch::Contains(p) && Catch::Contains("obj") && Catch::Contains("mesh"));
+  }
+  SECTION("no faces") {
+    const std::string p = tmp.file("empty.obj", quad);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("no faces"));
+  }
+  SECTION("non-finite coordinate") {
+    const std::string p = tmp.file("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":2") && Catch::Contains("non-finite"));
+    const std::string q = tmp.file("inf.off", "OFF\n3 1 0\n0 0 0\n1e999 0 0\n0 1 0\n3 0 1 2\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(q); }),
+               Catch::Contains(q + ":4") && Catch::Contains("vertex 1 has a non-finite"));
+  }
+  SECTION("out-of-range index") {
+    const std::string p = tmp.file("range.obj", quad + "f 1 2 3\nf 1 3 9\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":6") && Catch::Contains("face 2") && Catch::Contains("9"));
+    const std::string q = tmp.file("range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(q); }),
+               Catch::Contains(q + ":6") && Catch::Contains("face 0") &&
+                   Catch::Contains("index 3 out of range 0..2"));
+    const std::string r = tmp.file("range.ply",
+                                   "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                                   "property float y\nproperty float z\nelement face 2\n"
+                                   "property list uchar int vertex_indices\nend_header\n"
+                                   "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 2 7\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(r); }),
+               Catch::Contains(r) && Catch::Contains("face 1") && Catch::Contains("7"));
+  }
+  SECTION("repeated vertex in a face is degenerate") {
+    const std::string p = tmp.file("rep.obj", quad + "f 1 2 3\nf 1 1 3\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":6") && Catch::Contains("face 2 is degenerate"));
+    const std::string q = tmp.file("rep.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(q); }),
+               Catch::Contains(q) && Catch::Contains("face 0 is degenerate"));
+  }
+  SECTION("zero-area and relatively tiny faces are degenerate") {
+    const std::string p =
+        tmp.file("flat.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 2 1 4\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("face 1 (0-based) is degenerate"));
+    const std::string q =
+        tmp.file("sliver.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.5 1e-16 0\nf 1 2 3\nf 1 4 2\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(q); }), Catch::Contains("face 1"));
+  }
+}
+
+TEST_CASE("polygons are triangulated, unreferenced vertices keep their numbering", "[mesh][io]") {
+  TempDir tmp;
+  const std::string p =
+      tmp.file("poly.obj",
+               "# a quad and a triangle\nv 0 0 0\nv 1 0 0\nv 7 7 0\nv 1 1 0\nv 0 1 0\n"
+               "v 2 0.5 0\nf 1 2 4 5\nf 2 6 4\n");
+  const Mesh mesh = readMesh(p);
+  CHECK(mesh.kind() == MeshKind::Planar);
+  CHECK(mesh.numVertices() == 6);
+  CHECK(mesh.numElements() == 3);
+  const auto used = mesh.referenced();
+  CHECK(used == std::vector<bool>{true, true, false, true, true, true});
+  CHECK(mesh.positions().row(2) == Eigen::RowVector3d(7, 7, 0));
+  CHECK(mesh.positions().row(5) == Eigen::RowVector3d(2, 0.5, 0));
+}
+
+TEST_CASE("Medit .mesh reading", "[mesh][io]") {
+  TempDir tmp;
+  SECTION("other blocks, comments and any keyword case are fine") {
+    const std::string p =
+        tmp.file("ok.mesh",
+                 "meshversionformatted 1 # comment\nDIMENSION\n3\n# a comment line\n"
+                 "Vertices\n5\n0 0 0 1\n1 0 0 1\n0 1 0 1\n0 0 1 1\n1 1 1 1\n"
+                 "Edges\n1\n1 2 0\nCorners\n2\n1\n2\nTriangles\n2\n1 2 3 0\n2 3 4 0\n"
+                 "tetrahedra\n2\n1 2 3 4 0\n2 5 3 4 7\nRequiredVertices 1 3\nEnd\n");
+    const Mesh mesh = readMesh(p);
+    CHECK(mesh.kind() == MeshKind::Tet);
+    CHECK(mesh.numVertices() == 5);
+    CHECK(mesh.numElements() == 2);
+    CHECK(mesh.tet().tets[1] == std::array<int, 4>{1, 4, 2, 3});
+  }
+  SECTION("all tets negatively oriented: reoriented") {
+    const std::string p = tmp.file("neg.mesh",
+                                   "Vertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n"
+                                   "Tetrahedra\n1\n1 3 2 4 0\n");
+    const Mesh mesh = readMesh(p);
+    CHECK(totalVolume(mesh) == Approx(1.0 / 6.0));
+  }
+  SECTION("no tetrahedra") {
+    const std::string p = tmp.file("surf.mesh",
+                                   "Dimension 3\nVertices\n3\n0 0 0 0\n1 0 0 0\n0 1 0 0\n"
+                                   "Triangles\n1\n1 2 3 0\nEnd\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("no tetrahedra"));
+  }
+  SECTION("index out of range names the line and the tet") {
+    std::string text = kTetFile;
+    text.replace(text.find("2 5 3 4 0"), 9, "2 6 3 4 0");
+    const std::string p = tmp.file("range.mesh", text);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":13") && Catch::Contains("tet 2") &&
+                   Catch::Contains("index 6 out of range 1..5"));
+  }
+  SECTION("non-finite coordinate") {
+    std::string text = kTetFile;
+    text.replace(text.find("1 1 1 1"), 7, "1 inf 1 1");
+    const std::string p = tmp.file("inf.mesh", text);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":9") && Catch::Contains("vertex 5 has a non-finite"));
+  }
+  SECTION("bad number") {
+    std::string text = kTetFile;
+    text.replace(text.find("1 1 1 1"), 7, "1 x 1 1");
+    const std::string p = tmp.file("bad.mesh", text);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":9") && Catch::Contains("'x'"));
+  }
+  SECTION("truncated") {
+    std::string text = kTetFile;
+    text = text.substr(0, text.find("2 5 3 4 0"));
+    const std::string p = tmp.file("short.mesh", text);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("end of file") && Catch::Contains("tet 2"));
+  }
+  SECTION("degenerate tet (coplanar, or repeated vertex)") {
+    std::string text = kTetFile;
+    text.replace(text.find("1 1 1 1"), 7, "1 1 0 1");  // vertex 5 in the plane z = 0
+    text.replace(text.find("2 5 3 4 0"), 9, "1 2 5 3 0");
+    const std::string p = tmp.file("flat.mesh", text);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("tet 1 (0-based) is degenerate"));
+    std::string rep = kTetFile;
+    rep.replace(rep.find("2 5 3 4 0"), 9, "2 5 5 4 0");
+    const std::string q = tmp.file("rep.mesh", rep);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(q); }),
+               Catch::Contains(q) && Catch::Contains("tet 1 (0-based) is degenerate"));
+  }
+  SECTION("an inverted tet among positive ones") {
+    std::string text = kTetFile;
+    text.replace(text.find("2 5 3 4 0"), 9, "2 5 4 3 0");
+    const std::string p = tmp.file("inv.mesh", text);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("tet 1 (0-based) is inverted"));
+  }
+  SECTION("a 2D Medit mesh is refused") {
+    const std::string p = tmp.file("d2.mesh", "Dimension 2\nVertices\n0\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }), Catch::Contains(p + ":1"));
+  }
+}
+
+TEST_CASE("TetGen .node/.ele, 0- and 1-based", "[mesh][io]") {
+  TempDir tmp;
+  for (int base : {0, 1}) {
+    INFO("first index " << base);
+    const std::string b = std::to_string(base);
+    const auto id = [&](int i) { return std::to_string(i + base); };
+    std::string node = "# points\n5 3 1 1\n";
+    const char* pts[] = {"0 0 0", "1 0 0", "0 1 0", "0 0 1", "1 1 1"};
+    for (int i = 0; i < 5; ++i) node += id(i) + "  " + pts[i] + "  0.5 1\n";
+    const std::string ele = "2 4 0\n" + id(0) + " " + id(0) + " " + id(1) + " " + id(2) + " " +
+                            id(3) + "\n" + id(1) + " " + id(1) + " " + id(4) + " " + id(2) + " " +
+                            id(3) + "\n";
+    tmp.file("t" + b + ".node", node);
+    tmp.file("t" + b + ".ele", ele);
+    for (const char* ext : {".node", ".ele"}) {
+      const Mesh mesh = readMesh(tmp / ("t" + b + ext));
+      CHECK(mesh.kind() == MeshKind::Tet);
+      CHECK(mesh.numVertices() == 5);
+      CHECK(mesh.tet().tets[0] == std::array<int, 4>{0, 1, 2, 3});
+      CHECK(mesh.tet().tets[1] == std::array<int, 4>{1, 4, 2, 3});
+    }
+  }
+  SECTION("missing partner file") {
+    tmp.file("lonely.node", "1 3 0 0\n0 0 0 0\n");
+    CHECK_THAT(messageOf<IoError>([&] { readMesh(tmp / "lonely.node"); }),
+               Catch::Contains(tmp / "lonely.ele"));
+  }
+  SECTION("index out of range") {
+    tmp.file("bad.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+    const std::string e = tmp.file("bad.ele", "1 4 0\n1 1 2 3 5\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(tmp / "bad.node"); }),
+               Catch::Contains(e + ":2") && Catch::Contains("out of range 1..4"));
+  }
+}
+
+TEST_CASE("Medit write then read gives identical doubles", "[mesh][io]") {
+  TempDir tmp;
+  TetMesh tet;
+  tet.points = {{0.1, 1.0 / 3.0, M_PI},
+                {1.0 + 1e-15, 2.0 / 7.0, -1e-300},
+                {1e-17, 1.0 + 0.1, 0.3},
+                {0.7, 0.2, 5.0}};
+  tet.tets = {{0, 1, 2, 3}};
+  const Eigen::Vector3d a = tet.points[0], b = tet.points[1], c = tet.points[2], d = tet.points[3];
+  if ((b - a).dot((c - a).cross(d - a)) < 0) std::swap(tet.tets[0][2], tet.tets[0][3]);
+  const Mesh mesh(tet);
+  const std::string p = tmp / "round.mesh";
+  writeMesh(p, mesh);
+  const Mesh back = readMesh(p);
+  CHECK(back.positions() == mesh.positions());
+  CHECK(back.elements() == mesh.elements());
+}
+
+TEST_CASE("OBJ, OFF and OM round trips", "[mesh][io]") {
+  TempDir tmp;
+  const std::string src = tmp.file("src.obj",
+                                   "v 0 0 0.25\nv 1.5 0 0\nv 1 1.125 0\nv 0 1 0.5\n"
+                                   "f 1 2 3\nf 1 3 4\n");
+  Mesh mesh = readMesh(src);
+  for (const char* ext : {"obj", "off", "om"}) {
+    INFO(ext);
+    const std::string p = tmp / (std::string("out.") + ext);
+    writeMesh(p, mesh);
+    const Mesh back = readMesh(p);
+    CHECK(back.kind() == MeshKind::Surface);
+    CHECK(back.elements() == mesh.elements());
+    CHECK(back.positions() == mesh.positions());  // exactly representable values
+  }
+  SECTION("OM keeps doubles and the scalar properties") {
+    Eigen::MatrixXd p = mesh.positions();
+    p(1, 0) = 0.1;
+    p(2, 2) = 1.0 / 3.0;
+    mesh.setPositions(p);
+    mesh.setVertexScalar(prop::weight, Eigen::Vector4d(0.1, 0.2, 1.0 / 3.0, 0.0));
+    mesh.setElementScalar(prop::distortion, Eigen::Vector2d(M_PI, 1e-300));
+    writeMesh(tmp / "props.om", mesh);
+    const Mesh back = readMesh(tmp / "props.om");
+    CHECK(back.positions() == p);
+    REQUIRE(back.hasVertexScalar(prop::weight));
+    REQUIRE(back.hasElementScalar(prop::distortion));
+    CHECK(back.vertexScalar(prop::weight) == mesh.vertexScalar(prop::weight));
+    CHECK(back.elementScalar(prop::distortion) == mesh.elementScalar(prop::distortion));
+    CHECK(back.vertexScalarNames() == std::vector<std::string>{prop::weight});
+  }
+}
+
+TEST_CASE("a failed write leaves the existing file untouched and no temp file", "[mesh][io]") {
+  TempDir tmp;
+  const std::string keep = "precious\n";
+  const Mesh tri = readMesh(tmp.file("t.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+  const Mesh tet = readMesh(tmp.file("t.mesh", kTetFile));
+  const auto onlyFiles = [&](std::vector<std::string> names) {
+    std::vector<std::string> found;
+    for (const auto& e : fs::directory_iterator(tmp.path)) found.push_back(e.path().filename());
+    std::sort(found.begin(), found.end());
+    std::sort(names.begin(), names.end());
+    CHECK(found == names);
+  };
+
+  SECTION("unsupported extension for the kind") {
+    const std::string out = tmp.file("out.obj", keep);
+    CHECK_THAT(messageOf<IoError>([&] { writeMesh(out, tet); }),
+               Catch::Contains(out) && Catch::Contains("mesh, ply"));
+    CHECK(slurp(out) == keep);
+    const std::string out2 = tmp.file("out.mesh", keep);
+    CHECK_THAT(messageOf<IoError>([&] { writeMesh(out2, tri); }), Catch::Contains(out2));
+    CHECK(slurp(out2) == keep);
+  }
+  SECTION("rename onto a directory fails after writing") {
+    const std::string out = tmp / "dir.ply";
+    fs::create_directory(out);
+    tmp.file("dir.ply/inside", keep);
+    CHECK_THAT(messageOf<IoError>([&] { writeMesh(out, tri); }), Catch::Contains(out));
+    CHECK(fs::is_directory(out));
+    CHECK(slurp(tmp / "dir.ply/inside") == keep);
+    onlyFiles({"t.obj", "t.mesh", "dir.ply"});
+  }
+  SECTION("missing directory") {
+    const std::string out = tmp / "no/such/dir/out.obj";
+    CHECK_THAT(messageOf<IoError>([&] { writeMesh(out, tri); }), Catch::Contains(out));
+    onlyFiles({"t.obj", "t.mesh"});
+  }
+  SECTION("non-finite values are never written") {
+    const std::string out = tmp.file("out.ply", keep);
+    Mesh bad = tri;
+    bad.setVertexScalar(prop::weight, Eigen::Vector3d(0, NAN, 1));
+    CHECK_THROWS_AS(writeMesh(out, bad), InvalidMesh);
+    CHECK(slurp(out) == keep);
+    onlyFiles({"t.obj", "t.mesh", "out.ply"});
+  }
+  SECTION("a successful write replaces the file") {
+    const std::string out = tmp.file("out.off", keep);
+    writeMesh(out, tri);
+    CHECK(readMesh(out).numElements() == 1);
+    onlyFiles({"t.obj", "t.mesh", "out.off"});
+  }
+}
+
+TEST_CASE("PLY carries vertex and face quality and viridis colours", "[mesh][io]") {
+  TempDir tmp;
+  Mesh mesh = readMesh(tmp.file("q.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n"));
+  const Eigen::Vector4d w(0.0, 0.25, 1.5, -0.5);
+  const Eigen::Vector2d d(0.125, 3.0);
+  mesh.setVertexScalar(prop::weight, w);
+  mesh.setElementScalar(prop::distortion, d);
+  const std::string out = tmp / "q.ply";
+  writeMesh(out, mesh);
+
+  SECTION("header and values") {
+    const Ply ply = parsePly(out);
+    CHECK(ply.props.at("vertex") ==
+          std::vector<std::string>{"x", "y", "z", "quality", "red", "green", "blue"});
+    CHECK(ply.props.at("face") == std::vector<std::string>{"vertex_indices", "quality"});
+    const auto& vs = ply.rows.at("vertex");
+    REQUIRE(vs.size() == 4u);
+    for (int i = 0; i < 4; ++i) {
+      CHECK(vs[i][3] == w[i]);
+      const auto rgb = viridis(std::clamp(w[i], 0.0, 1.0));
+      CHECK(vs[i][4] == rgb[0]);
+      CHECK(vs[i][5] == rgb[1]);
+      CHECK(vs[i][6] == rgb[2]);
+    }
+    const auto& fs_ = ply.rows.at("face");
+    REQUIRE(fs_.size() == 2u);
+    CHECK(fs_[0][4] == d[0]);
+    CHECK(fs_[1][4] == d[1]);
+  }
+  SECTION("OpenMesh reads the quality back as custom properties") {
+    TriMesh back;
+    OpenMesh::IO::Options opt = OpenMesh::IO::Options::Custom;
+    REQUIRE(OpenMesh::IO::read_mesh(back, out, opt));
+    OpenMesh::VPropHandleT<float> vq;
+    OpenMesh::FPropHandleT<float> fq;
+    REQUIRE(back.get_property_handle(vq, "quality"));
+    REQUIRE(back.get_property_handle(fq, "quality"));
+    for (int i = 0; i < 4; ++i) CHECK(back.property(vq, back.vertex_handle(i)) == float(w[i]));
+    CHECK(back.property(fq, back.face_handle(1)) == float(d[1]));
+  }
+  SECTION("no properties, no colours: plain PLY that readMesh reads") {
+    const Mesh plain = readMesh(tmp.file("p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+    writeMesh(tmp / "p.ply", plain);
+    const Ply ply = parsePly(tmp / "p.ply");
+    CHECK(ply.props.at("vertex") == std::vector<std::string>{"x", "y", "z"});
+    CHECK(readMesh(tmp / "p.ply").numElements() == 1);
+  }
+}
+
+TEST_CASE("PLY of a tet mesh: boundary faces carry their tet's value", "[mesh][io]") {
+  TempDir tmp;
+  Mesh mesh = readMesh(tmp.file("two.mesh", kTetFile));
+  mesh.setVertexScalar(prop::weight, Eigen::VectorXd::LinSpaced(5, 0.0, 1.0));
+  mesh.setElementScalar(prop::distortion, Eigen::Vector2d(10.0, 20.0));
+  writeMesh(tmp / "two.ply", mesh);
+  const Ply ply = parsePly(tmp / "two.ply");
+  const auto& faces = ply.rows.at("face");
+  REQUIRE(faces.size() == 6u);  // 8 tet faces, one shared
+  REQUIRE(ply.rows.at("vertex").size() == 5u);
+  int tenths = 0, twenties = 0;
+  for (const auto& f : faces) {
+    // Face vertices all belong to the owning tet: tet 0 = {0,1,2,3}, tet 1 = {1,4,2,3}.
+    const bool usesV4 = f[1] == 4 || f[2] == 4 || f[3] == 4;
+    const bool usesV0 = f[1] == 0 || f[2] == 0 || f[3] == 0;
+    CHECK(f[4] == (usesV4 ? 20.0 : 10.0));
+    if (usesV0) ++tenths;
+    if (usesV4) ++twenties;
+  }
+  CHECK(tenths == 3);
+  CHECK(twenties == 3);
+  for (int i = 0; i < 5; ++i) CHECK(ply.rows.at("vertex")[i][3] == Approx(0.25 * i));
+}
