@@ -1,0 +1,143 @@
+#include "deformation/deformer.h"
+
+#include "core/error.h"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace diffreg {
+
+DeformationSession::DeformationSession(const Discretization& disc,
+                                       const DeformationOptions& options)
+    : disc_(disc),
+      options_(options),
+      model_(disc, options.energy),
+      system_(model_, options.backend) {
+  if (options.energy == Energy::Arap && disc.kind() == MeshKind::Planar) {
+    initModel_ = std::make_unique<ResidualModel>(disc, Energy::Asap);
+    initSystem_ = std::make_unique<RegularizedSystem>(*initModel_, options.backend);
+  }
+  setRegularization(options.regularization, options.beta, options.weights);
+}
+
+DeformationSession::~DeformationSession() = default;
+
+void DeformationSession::setHandles(const std::vector<int>& vertices) {
+  if (vertices.empty()) throw InvalidParameter("deformation: the handle set is empty");
+  std::vector<bool> seen(static_cast<size_t>(disc_.numVertices()), false);
+  for (int v : vertices) {
+    if (v < 0 || v >= disc_.numVertices())
+      throw InvalidParameter("deformation: handle vertex " + std::to_string(v) +
+                             " is out of range [0, " + std::to_string(disc_.numVertices()) + ")");
+    if (seen[static_cast<size_t>(v)])
+      throw InvalidParameter("deformation: handle vertex " + std::to_string(v) +
+                             " is listed twice");
+    seen[static_cast<size_t>(v)] = true;
+  }
+  handles_ = vertices;
+  targets_.resize(static_cast<Eigen::Index>(vertices.size()), disc_.dim());
+  for (size_t i = 0; i < vertices.size(); ++i)
+    targets_.row(static_cast<Eigen::Index>(i)) = disc_.rest().row(vertices[i]);
+  system_.setHandles(vertices);
+  if (initSystem_) initSystem_->setHandles(vertices);
+}
+
+void DeformationSession::setTargets(const Eigen::MatrixXd& targets) {
+  const int d = disc_.dim();
+  if (targets.rows() != static_cast<Eigen::Index>(handles_.size()) || targets.cols() < d ||
+      targets.cols() > 3)
+    throw InvalidParameter("deformation: targets are " + std::to_string(targets.rows()) + " x " +
+                           std::to_string(targets.cols()) + " for " +
+                           std::to_string(handles_.size()) + " handle vertices in " +
+                           std::to_string(d) + "D");
+  if (!targets.allFinite()) throw InvalidParameter("deformation: a target is not finite");
+  targets_ = targets.leftCols(d);
+}
+
+void DeformationSession::setRegularization(Regularization mode, double beta,
+                                           const Eigen::VectorXd& weights) {
+  const RegularizationWeights w = makeRegularizationWeights(disc_, mode, beta, weights);
+  options_.regularization = mode;
+  options_.beta = beta;
+  options_.weights = weights;
+  system_.setWeights(w);
+  if (initSystem_) initSystem_->setWeights(w);
+}
+
+void DeformationSession::setBeta(double beta) { setRegularization(Regularization::Uniform, beta); }
+
+void DeformationSession::setWeights(const Eigen::VectorXd& weights) {
+  setRegularization(Regularization::Nonuniform, 0.0, weights);
+}
+
+SolverStats DeformationSession::stats() const {
+  SolverStats s = system_.stats();
+  if (initSystem_) s += initSystem_->stats();
+  return s;
+}
+
+DeformationResult DeformationSession::solve(int maxIterations, double relTolerance) {
+  if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
+  if (maxIterations < 1)
+    throw InvalidParameter("deformation: iterations = " + std::to_string(maxIterations) +
+                           " must be at least 1");
+  if (!(relTolerance >= 0.0)) throw InvalidParameter("deformation: tolerance must be non-negative");
+  const RegularizationWeights& w = system_.weights();
+  auto energyAt = [&](const Eigen::MatrixXd& X) {
+    model_.targets(X, t_);
+    model_.residuals(X, t_, e_);
+    const double E = model_.energy(e_, w);
+    if (!std::isfinite(E))
+      throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
+    return E;
+  };
+
+  DeformationResult result;
+  if (!model_.iterative()) {
+    model_.targets(disc_.rest(), t_);
+    result.positions = system_.solve(t_, targets_);
+    result.energies.push_back(energyAt(result.positions));
+    result.iterations = 1;
+    return result;
+  }
+
+  // Initial local step: the rotations of the rest shape (identities), or those of the
+  // regularized ASAP solution.
+  Eigen::MatrixXd X = disc_.rest();
+  double E = std::numeric_limits<double>::infinity();
+  if (initSystem_ && initSystem_->singularity().empty()) {
+    Eigen::MatrixXd t0;
+    initModel_->targets(disc_.rest(), t0);
+    X = initSystem_->solve(t0, targets_);
+    result.initialGuess = "asap";
+    E = energyAt(X);  // also fits t_ to X
+    result.energies.push_back(E);
+  } else {
+    model_.targets(X, t_);
+  }
+  result.converged = false;
+  for (int it = 0; it < maxIterations; ++it) {
+    X = system_.solve(t_, targets_);
+    const double previous = E;
+    E = energyAt(X);
+    result.energies.push_back(E);
+    ++result.iterations;
+    if (std::isfinite(previous) && std::abs(previous - E) <= relTolerance * previous) {
+      result.converged = true;
+      break;
+    }
+  }
+  result.positions = std::move(X);
+  return result;
+}
+
+DeformationResult deform(const Discretization& disc, const DeformationOptions& options,
+                         const std::vector<int>& handles, const Eigen::MatrixXd& targets) {
+  DeformationSession session(disc, options);
+  session.setHandles(handles);
+  session.setTargets(targets);
+  return session.solve();
+}
+
+}  // namespace diffreg

@@ -1,0 +1,93 @@
+// A deformation editing session (the paper's Fig. 5): handles, regularization and targets can
+// change between solves, and each change costs only what it must:
+//   setHandles                          -> symbolic analysis + numeric factorization next solve
+//   setBeta / setWeights / setRegularization -> numeric factorization only
+//   setTargets                          -> right-hand side only
+#pragma once
+
+#include "deformation/energy.h"
+#include "deformation/system.h"
+#include "solver/solver.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace diffreg {
+
+struct DeformationOptions {
+  Energy energy = Energy::Arap;
+  Regularization regularization = Regularization::None;
+  double beta = 0.0;           ///< uniform beta
+  Eigen::VectorXd weights;     ///< per-vertex weights in [0, 1] for nonuniform
+  int maxIterations = 50;      ///< local/global iterations (ARAP, ASAP in 3D)
+  double relTolerance = 1e-6;  ///< stop when the energy drops by less than this fraction
+  SolverBackend backend = defaultSolverBackend();
+};
+
+struct DeformationResult {
+  Eigen::MatrixXd positions;  ///< n x d (planar: 2 columns)
+  /// Total regularized energy (energy.h, ResidualModel::energy) after each global step, with
+  /// the rotations refitted to the positions; preceded by the energy of the ASAP initial guess
+  /// when one is used. Linear energies: one value, at the solution.
+  std::vector<double> energies;
+  int iterations = 0;     ///< global steps taken
+  bool converged = true;  ///< relative energy change fell below the tolerance
+  /// Where the first local step takes its rotations: "rest" (identities, so the first global
+  /// step is the Dirichlet solve) or "asap" (the regularized ASAP solution, used by ARAP on
+  /// planar meshes when every component has 2 distinct handle points).
+  std::string initialGuess = "rest";
+};
+
+class DeformationSession {
+ public:
+  /// \throw InvalidParameter for invalid regularization options (see setRegularization).
+  DeformationSession(const Discretization& disc, const DeformationOptions& options = {});
+  ~DeformationSession();
+
+  /// Constrained vertices; their targets reset to their rest positions.
+  /// \throw InvalidParameter for an empty list, an id out of range or a repeated id.
+  void setHandles(const std::vector<int>& vertices);
+  /// Target positions, one row per handle vertex, d columns (planar meshes accept 3 and ignore z).
+  /// \throw InvalidParameter for the wrong shape or non-finite values.
+  void setTargets(const Eigen::MatrixXd& targets);
+  /// \throw InvalidParameter for beta outside [0, 1] or bad weights (makeRegularizationWeights).
+  void setRegularization(Regularization mode, double beta, const Eigen::VectorXd& weights = {});
+  /// Uniform regularization with this beta.
+  void setBeta(double beta);
+  /// Non-uniform regularization with these per-vertex weights.
+  void setWeights(const Eigen::VectorXd& weights);
+
+  /// Minimizes the regularized energy with the handles at their targets.
+  /// \throw InvalidParameter before any setHandles() or for maxIterations < 1 or a negative
+  ///        tolerance. \throw SingularSystem when a component has too few handle points.
+  DeformationResult solve(int maxIterations, double relTolerance);
+  DeformationResult solve() { return solve(options_.maxIterations, options_.relTolerance); }
+
+  const DeformationOptions& options() const { return options_; }
+  const ResidualModel& model() const { return model_; }
+  const RegularizationWeights& regularizationWeights() const { return system_.weights(); }
+  /// The system matrix A of the energy (n x n separable, d n x d n coupled), for tests.
+  const SparseMatrix& systemMatrix() const { return system_.matrix(); }
+  /// Counters summed over the factorizations this session owns (the energy's and, for ARAP on
+  /// planar meshes, the one of its ASAP initial guess).
+  SolverStats stats() const;
+
+ private:
+  const Discretization& disc_;
+  DeformationOptions options_;
+  ResidualModel model_;
+  RegularizedSystem system_;
+  // ARAP on planar meshes starts from the regularized ASAP solution.
+  std::unique_ptr<ResidualModel> initModel_;
+  std::unique_ptr<RegularizedSystem> initSystem_;
+  std::vector<int> handles_;
+  Eigen::MatrixXd targets_;
+  Eigen::MatrixXd t_, e_;  // targets and residuals, reused across iterations
+};
+
+/// One-shot: deforms `disc` with the handle vertices moved to `targets`.
+DeformationResult deform(const Discretization& disc, const DeformationOptions& options,
+                         const std::vector<int>& handles, const Eigen::MatrixXd& targets);
+
+}  // namespace diffreg

@@ -1,0 +1,100 @@
+#include "deformation/metrics.h"
+
+#include "core/error.h"
+#include "deformation/rotation.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace diffreg {
+namespace {
+
+void checkPositions(const Discretization& disc, const Eigen::MatrixXd& X) {
+  if (X.rows() != disc.numVertices() || X.cols() != disc.dim())
+    throw InvalidParameter("metrics: positions are " + std::to_string(X.rows()) + " x " +
+                           std::to_string(X.cols()) + ", expected " +
+                           std::to_string(disc.numVertices()) + " x " + std::to_string(disc.dim()));
+}
+
+}  // namespace
+
+Eigen::VectorXd elementDistortion(const Discretization& disc, Energy energy,
+                                  const Eigen::MatrixXd& positions) {
+  checkPositions(disc, positions);
+  const ResidualModel model(disc, energy);
+  return model.distortion(model.residuals(positions));
+}
+
+Eigen::VectorXd facetSmoothness(const Discretization& disc, Energy energy,
+                                const Eigen::MatrixXd& positions) {
+  checkPositions(disc, positions);
+  const ResidualModel model(disc, energy);
+  return model.facetDifference(model.residuals(positions));
+}
+
+Eigen::VectorXd elementSmoothness(const Discretization& disc, const Eigen::VectorXd& perFacet) {
+  const auto& facets = disc.facets();
+  if (perFacet.size() != static_cast<Eigen::Index>(facets.size()))
+    throw InvalidParameter("metrics: " + std::to_string(perFacet.size()) + " facet values for " +
+                           std::to_string(facets.size()) + " facets");
+  Eigen::VectorXd s = Eigen::VectorXd::Zero(disc.numElements());
+  for (size_t f = 0; f < facets.size(); ++f) {
+    const double v = perFacet(static_cast<Eigen::Index>(f));
+    s(facets[f].k) = std::max(s(facets[f].k), v);
+    s(facets[f].l) = std::max(s(facets[f].l), v);
+  }
+  return s;
+}
+
+int countInverted(const Discretization& disc, const Eigen::MatrixXd& X) {
+  checkPositions(disc, X);
+  const Eigen::MatrixXi& el = disc.elements();
+  int count = 0;
+  for (int k = 0; k < disc.numElements(); ++k) {
+    Eigen::MatrixXd F = Eigen::MatrixXd::Zero(disc.dim(), disc.dim());
+    const auto G = disc.gradient(k);
+    for (int i = 0; i < el.cols(); ++i) F += X.row(el(k, i)).transpose() * G.row(i);
+    if (disc.kind() != MeshKind::Surface) {
+      if (F.determinant() <= 0.0) ++count;
+      continue;
+    }
+    const Eigen::Matrix3d F3 = F;
+    Eigen::Vector3d sigma;
+    const Eigen::Vector3d Rn = closestRotation<3>(F3, sigma) * disc.normals().row(k).transpose();
+    const Eigen::Vector3d a = (X.row(el(k, 1)) - X.row(el(k, 0))).transpose();
+    const Eigen::Vector3d b = (X.row(el(k, 2)) - X.row(el(k, 0))).transpose();
+    if (a.cross(b).dot(Rn) <= 0.0) ++count;
+  }
+  return count;
+}
+
+double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  if (a.rows() != b.rows() || a.cols() != b.cols() || a.rows() == 0)
+    throw InvalidParameter("metrics: cannot compare positions of shapes " +
+                           std::to_string(a.rows()) + " x " + std::to_string(a.cols()) + " and " +
+                           std::to_string(b.rows()) + " x " + std::to_string(b.cols()));
+  return std::sqrt((a - b).rowwise().squaredNorm().mean());
+}
+
+DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
+                                      const Eigen::MatrixXd& positions,
+                                      const RegularizationWeights& weights,
+                                      const Eigen::MatrixXd* reference) {
+  checkPositions(disc, positions);
+  const ResidualModel model(disc, energy);
+  const Eigen::MatrixXd e = model.residuals(positions);
+  const Eigen::VectorXd D = model.distortion(e);
+  const Eigen::VectorXd& a = disc.measures();
+  DeformationMetrics m;
+  m.dMax = D.maxCoeff();
+  m.dAve = a.dot(D) / a.sum();
+  m.dDev = std::sqrt(std::max(0.0, a.dot((D.array() - m.dAve).square().matrix()) / a.sum()));
+  m.inverted = countInverted(disc, positions);
+  m.energy = model.energy(e, weights);
+  if (reference) m.dist = rmsDistance(positions, *reference);
+  return m;
+}
+
+}  // namespace diffreg

@@ -1,0 +1,50 @@
+// Deformation quality measures (METHOD.md §6, the paper's Table 1 and Fig. 2). Plain functions
+// of a discretization, an energy and positions, usable outside any pipeline.
+#pragma once
+
+#include "deformation/energy.h"
+
+#include <Eigen/Core>
+#include <optional>
+
+namespace diffreg {
+
+/// D_k = ||e_k||_F^2 per element for `energy` at `positions` (n x d); ARAP and the 3D ASAP
+/// use the rotations fitted to the final F_k.
+Eigen::VectorXd elementDistortion(const Discretization& disc, Energy energy,
+                                  const Eigen::MatrixXd& positions);
+
+/// ||e_k - e_l||_F^2 per facet (order of Discretization::facets()), the paper's Fig. 2 map.
+Eigen::VectorXd facetSmoothness(const Discretization& disc, Energy energy,
+                                const Eigen::MatrixXd& positions);
+
+/// Per element, the largest facetSmoothness over its facets (0 for an element without
+/// neighbours): the element property diffreg:smoothness.
+Eigen::VectorXd elementSmoothness(const Discretization& disc, const Eigen::VectorXd& perFacet);
+
+/// Elements with det F_k <= 0 (planar, tets). Surfaces: deformed normal . (R_k n_k) <= 0 with
+/// R_k the closest rotation to F_k; a triangle cannot invert within its own plane, so on
+/// surfaces this counts collapsed (zero-area) triangles.
+int countInverted(const Discretization& disc, const Eigen::MatrixXd& positions);
+
+/// Root mean square of the per-vertex distance between two position sets of equal shape.
+/// \throw InvalidParameter when the shapes differ or are empty.
+double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
+
+struct DeformationMetrics {
+  double dMax = 0.0;           ///< max_k D_k
+  double dAve = 0.0;           ///< area- (volume-) weighted mean of D_k: sum a_k D_k / sum a_k
+  double dDev = 0.0;           ///< area- (volume-) weighted standard deviation of D_k
+  int inverted = 0;            ///< countInverted
+  double energy = 0.0;         ///< total regularized energy (ResidualModel::energy)
+  std::optional<double> dist;  ///< rmsDistance to the reference, when one is given
+};
+
+/// All of the above for a deformation. `reference` (n x d), when given, is the same edit
+/// without regularization (or any other positions to compare with).
+DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
+                                      const Eigen::MatrixXd& positions,
+                                      const RegularizationWeights& weights,
+                                      const Eigen::MatrixXd* reference = nullptr);
+
+}  // namespace diffreg

@@ -1,0 +1,62 @@
+// The regularized quadratic system of one energy (METHOD.md §3) with hard constraints by
+// elimination. For the stacked residual operator J (e = J x - t), the element weights
+// W = diag((1 - beta_k) a_k) and the facet weights Ws = diag(ell beta_kl c_kl) on the facet
+// differences D (D e = e_k - e_l):
+//
+//     A = J^T W J + (D J)^T Ws (D J),      A x = C t,   C = J^T (W + D^T Ws D).
+//
+// ell is the mean rest edge length. METHOD.md §3 measures a_k and c_kl on the rest mesh scaled
+// to unit mean edge length: a' = ell^-md a, c' = ell^-(md-1) c and G' = ell G, so its matrix is
+// ell^(2-md) times this A. A constant factor leaves the minimizer unchanged: beta means the same
+// on a mesh in any unit, scaling the mesh and its motion by s scales the solution by s, and with
+// beta = 0 the separable matrix is exactly the cotangent stiffness K.
+#pragma once
+
+#include "deformation/energy.h"
+#include "solver/solver.h"
+
+#include <string>
+#include <vector>
+
+namespace diffreg {
+
+class RegularizedSystem {
+ public:
+  explicit RegularizedSystem(const ResidualModel& model,
+                             SolverBackend backend = defaultSolverBackend());
+
+  /// Constrained vertices (all their coordinates): the next solve analyzes the pattern again.
+  /// Vertices without elements are always held at their rest positions.
+  /// \pre ids valid and distinct (DeformationSession checks them).
+  void setHandles(const std::vector<int>& vertices);
+  /// New regularization weights: A and C are reassembled with the same sparsity pattern (zero
+  /// weights stay structural), so the next solve refactorizes numerically only.
+  void setWeights(const RegularizationWeights& weights);
+  const RegularizationWeights& weights() const { return weights_; }
+
+  /// Empty when every connected component has enough handle points for this energy and these
+  /// weights; otherwise a one-line reason naming the component and what it needs.
+  std::string singularity() const;
+  /// Factorizes if needed and solves for the positions (n x d) given stacked targets t and the
+  /// handle positions (one row per setHandles() vertex, d columns).
+  /// \throw SingularSystem (see singularity()) or when the factorization or solution fails.
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& t, const Eigen::MatrixXd& handlePositions);
+
+  /// The full system matrix A (numUnknowns() square), assembled for the current weights.
+  const SparseMatrix& matrix() const { return A_; }
+  const SolverStats& stats() const { return solver_.stats(); }
+  const ResidualModel& model() const { return model_; }
+
+ private:
+  void assemble();
+
+  const ResidualModel& model_;
+  RegularizationWeights weights_;
+  std::vector<int> handles_;
+  SparseMatrix A_, C_;
+  Eigen::MatrixXd b_;  // right-hand side, reused
+  EliminatedSolver solver_;
+  bool partitionDirty_ = true, matrixDirty_ = true;
+};
+
+}  // namespace diffreg

@@ -1,0 +1,171 @@
+// Included first: it silences a GCC false positive in OpenMesh before any system header.
+#include "test_deformation_fixtures.h"
+
+#include "deformation/metrics.h"
+
+#include "core/error.h"
+
+#include <catch2/catch.hpp>
+
+using namespace diffreg;
+using namespace diffreg::testing;
+
+namespace {
+
+// The bar with both ends clamped and one point handle in the middle of its bottom side pushed
+// up (into the bar) by `depth`. Handle 0 is the point handle.
+struct PushedBar {
+  std::unique_ptr<Discretization> disc;
+  std::vector<int> handles;
+  Eigen::MatrixXd targets;
+};
+
+PushedBar pushedBar(MeshKind kind, double depth) {
+  PushedBar b;
+  b.disc = makeBar(kind);
+  const Eigen::MatrixXd& rest = b.disc->rest();
+  Eigen::RowVectorXd p = 0.5 * (rest.colwise().minCoeff() + rest.colwise().maxCoeff());
+  p(1) = rest.col(1).minCoeff();
+  b.handles = {nearestVertex(*b.disc, p)};
+  for (int v : bothEnds(*b.disc)) b.handles.push_back(v);
+  b.targets = rows(rest, b.handles);
+  b.targets(0, 1) += depth;
+  return b;
+}
+
+struct Outcome {
+  DeformationMetrics metrics;
+  double dMaxNearHandle = 0.0;  // max D_k over elements within 0.5 of the point handle
+};
+
+// ARAP with the given regularization; metrics against the unregularized solution `plain`.
+Outcome run(const PushedBar& b, Regularization mode, double beta, const Eigen::VectorXd& x,
+            Eigen::MatrixXd* plain) {
+  DeformationOptions o;
+  o.energy = Energy::Arap;
+  o.regularization = mode;
+  o.beta = beta;
+  o.weights = x;
+  o.maxIterations = 100;
+  o.relTolerance = 1e-8;
+  const DeformationResult r = deform(*b.disc, o, b.handles, b.targets);
+  if (mode == Regularization::None) *plain = r.positions;
+  Outcome out;
+  // Distortion measured without regularization weights: the same D_k for all three runs.
+  const auto none = makeRegularizationWeights(*b.disc, Regularization::None, 0.0);
+  out.metrics = measureDeformation(*b.disc, Energy::Arap, r.positions, none, plain);
+  const Eigen::VectorXd D = elementDistortion(*b.disc, Energy::Arap, r.positions);
+  const Discretization& disc = *b.disc;
+  for (int k = 0; k < disc.numElements(); ++k) {
+    Eigen::RowVectorXd centre = Eigen::RowVectorXd::Zero(disc.dim());
+    for (int i = 0; i < disc.elementSize(); ++i)
+      centre += disc.rest().row(disc.elements()(k, i)) / disc.elementSize();
+    if ((centre - disc.rest().row(b.handles[0])).norm() < 0.5)
+      out.dMaxNearHandle = std::max(out.dMaxNearHandle, D(k));
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("metrics of the rest shape and of simple motions", "[deformation][metrics]") {
+  for (MeshKind kind : kAllKinds) {
+    const auto disc = makeBar(kind);
+    const auto w = makeRegularizationWeights(*disc, Regularization::Uniform, 0.5);
+    INFO(toString(kind));
+    const Eigen::MatrixXd& rest = disc->rest();
+    const DeformationMetrics m = measureDeformation(*disc, Energy::Arap, rest, w, &rest);
+    CHECK(m.dMax < 1e-24);
+    CHECK(m.energy < 1e-24);
+    CHECK(m.inverted == 0);
+    REQUIRE(m.dist.has_value());
+    CHECK(*m.dist == 0.0);
+    CHECK_FALSE(measureDeformation(*disc, Energy::Arap, rest, w).dist.has_value());
+
+    const Eigen::RowVectorXd shift = Eigen::RowVectorXd::Constant(disc->dim(), 0.5);
+    CHECK(rmsDistance(rest.rowwise() + shift, rest) == Approx(shift.norm()));
+
+    // A stretch by 1.5 along x (the bar's axis, tangent to every surface element):
+    // F - I = 0.5 e_x e_x^T everywhere, so D_k = 0.25 and neighbouring residuals agree.
+    Eigen::MatrixXd stretched = rest;
+    stretched.col(0) *= 1.5;
+    const DeformationMetrics s = measureDeformation(*disc, Energy::Dirichlet, stretched, w);
+    CHECK(s.dMax == Approx(0.25));
+    CHECK(s.dAve == Approx(0.25));
+    CHECK(s.dDev == Approx(0.0).margin(1e-9));
+    CHECK(facetSmoothness(*disc, Energy::Dirichlet, stretched).cwiseAbs().maxCoeff() < 1e-20);
+  }
+}
+
+TEST_CASE("D_ave and D_dev are area-weighted; smoothness per element is the max over its facets",
+          "[deformation][metrics]") {
+  const auto disc = makeBar(MeshKind::Planar);
+  Eigen::MatrixXd X = disc->rest();
+  X.col(1) += 0.1 * X.col(0).array().square().matrix();
+  const auto none = makeRegularizationWeights(*disc, Regularization::None, 0.0);
+  const DeformationMetrics m = measureDeformation(*disc, Energy::Arap, X, none);
+  const Eigen::VectorXd D = elementDistortion(*disc, Energy::Arap, X);
+  const Eigen::VectorXd& a = disc->measures();
+  CHECK(m.dMax == Approx(D.maxCoeff()));
+  CHECK(m.dAve == Approx(a.dot(D) / a.sum()));
+  const double var = a.dot((D.array() - m.dAve).square().matrix()) / a.sum();
+  CHECK(m.dDev == Approx(std::sqrt(var)));
+  CHECK(m.energy == Approx(a.dot(D) / std::pow(disc->meanEdgeLength(), 2)));
+
+  const Eigen::VectorXd S = facetSmoothness(*disc, Energy::Arap, X);
+  const Eigen::VectorXd perElement = elementSmoothness(*disc, S);
+  for (size_t f = 0; f < disc->facets().size(); ++f) {
+    CHECK(perElement(disc->facets()[f].k) >= S(static_cast<Eigen::Index>(f)));
+    CHECK(perElement(disc->facets()[f].l) >= S(static_cast<Eigen::Index>(f)));
+  }
+  CHECK(perElement.maxCoeff() == Approx(S.maxCoeff()));
+  CHECK_THROWS_AS(elementSmoothness(*disc, Eigen::VectorXd::Zero(2)), InvalidParameter);
+  CHECK_THROWS_AS(measureDeformation(*disc, Energy::Arap, X.leftCols(1), none), InvalidParameter);
+  CHECK_THROWS_AS(rmsDistance(X, X.topRows(3)), InvalidParameter);
+}
+
+TEST_CASE("regularization removes inverted elements and the distortion spike at a point handle",
+          "[deformation][metrics]") {
+  // Planar: pushed 1.2 into a bar of height 1; tet: pushed 2 into a box of height 1.
+  for (auto [kind, depth] : {std::pair{MeshKind::Planar, 1.2}, std::pair{MeshKind::Tet, 2.0}}) {
+    const PushedBar b = pushedBar(kind, depth);
+    const Eigen::VectorXd x = bumpWeights(*b.disc, {b.handles[0]}, 0.5, 0.7);
+    Eigen::MatrixXd plain;
+    const Outcome none = run(b, Regularization::None, 0.0, x, &plain);
+    const Outcome uniform = run(b, Regularization::Uniform, 0.5, x, &plain);
+    const Outcome nonuniform = run(b, Regularization::Nonuniform, 0.0, x, &plain);
+    INFO(toString(kind) << ": inverted " << none.metrics.inverted << " / "
+                        << uniform.metrics.inverted << " / " << nonuniform.metrics.inverted
+                        << ", D_max near the handle " << none.dMaxNearHandle << " / "
+                        << uniform.dMaxNearHandle << " / " << nonuniform.dMaxNearHandle);
+    CHECK(none.metrics.inverted > 0);
+    CHECK(uniform.metrics.inverted < none.metrics.inverted);
+    CHECK(nonuniform.metrics.inverted < none.metrics.inverted);
+    CHECK(uniform.dMaxNearHandle < 0.7 * none.dMaxNearHandle);
+    CHECK(nonuniform.dMaxNearHandle < 0.7 * none.dMaxNearHandle);
+  }
+}
+
+TEST_CASE(
+    "non-uniform regularization distorts less and moves less than uniform at the same "
+    "peak beta (Table 1 pattern)",
+    "[deformation][metrics]") {
+  for (MeshKind kind : kAllKinds) {
+    const PushedBar b = pushedBar(kind, 1.2);
+    const double peak = 0.5;
+    const Eigen::VectorXd x = bumpWeights(*b.disc, {b.handles[0]}, peak, 0.7);
+    REQUIRE(x.maxCoeff() == Approx(peak));
+    Eigen::MatrixXd plain;
+    const Outcome none = run(b, Regularization::None, 0.0, x, &plain);
+    const Outcome uniform = run(b, Regularization::Uniform, peak, x, &plain);
+    const Outcome nonuniform = run(b, Regularization::Nonuniform, 0.0, x, &plain);
+    INFO(toString(kind) << ": D_ave " << none.metrics.dAve << " / " << uniform.metrics.dAve << " / "
+                        << nonuniform.metrics.dAve << ", Dist " << *uniform.metrics.dist << " / "
+                        << *nonuniform.metrics.dist);
+    CHECK(nonuniform.metrics.dAve < uniform.metrics.dAve);
+    CHECK(*nonuniform.metrics.dist < *uniform.metrics.dist);
+    // Both still smooth the spike at the handle.
+    CHECK(uniform.dMaxNearHandle < none.dMaxNearHandle);
+    CHECK(nonuniform.dMaxNearHandle < none.dMaxNearHandle);
+  }
+}
