@@ -1,0 +1,41 @@
+// The RBF baseline for regularization weights (paper §3.2.2 and Fig. 10, METHOD.md §5):
+//   x(v) = sum_j m_j phi(d(v, j) / (r_j sigma)),   phi(s) = exp(-s^2),
+// d(v, j) the Euclidean or geodesic distance from v to the nearest vertex of handle j. The sum
+// over handles is what lets x exceed max m_j between nearby handles (no maximum principle),
+// which is the paper's argument for diffused weights.
+#pragma once
+
+#include "handles/handles.h"
+#include "mesh/mesh.h"
+
+#include <Eigen/Core>
+#include <string>
+
+namespace diffreg {
+
+enum class RbfDistance {
+  Euclidean,  ///< straight-line distance in the ambient space
+  Geodesic,   ///< heat-method geodesic distance (weights/geodesic.h)
+};
+
+/// "euclidean" or "geodesic".
+const char* toString(RbfDistance distance);
+/// \throw InvalidParameter for an unknown name, listing the valid ones.
+RbfDistance parseRbfDistance(const std::string& name);
+
+/// sigma in length units from a fraction of the bounding-box diagonal of the mesh's vertices.
+/// \throw InvalidParameter for fraction <= 0 (or not finite), InvalidMesh for an empty mesh.
+double rbfSigmaFromDiagonal(const Mesh& mesh, double fraction);
+
+/// Gaussian RBF weights (see the file comment), size n. Unreferenced vertices get 0, like the
+/// diffused weights. With `clamp` the result is clamped to [0, 1]; otherwise it is left as the
+/// plain sum, which may exceed max m_j.
+/// \param sigma kernel width in length units (see rbfSigmaFromDiagonal); r_j scales it per
+///        handle.
+/// \throw InvalidParameter for sigma <= 0 (or not finite), no handles, an empty handle, a
+///        vertex id out of range, r_j <= 0 or m_j < 0 (naming the handle).
+/// \throw InvalidMesh, SingularSystem from the geodesic solver (RbfDistance::Geodesic).
+Eigen::VectorXd rbfWeights(const Mesh& mesh, const HandleSet& handles, double sigma,
+                           RbfDistance distance, bool clamp = false);
+
+}  // namespace diffreg
