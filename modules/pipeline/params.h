@@ -45,12 +45,15 @@ class ParamMap {
   std::map<std::string, std::string> text_;
 };
 
-/// Shortest text that reads back (strtod) as exactly `value`, with a tidy exponent ("1e6",
-/// "1e-12", "0.01"): the canonical text of Float parameters.
+/// Shortest text that reads back (strtod) as exactly `value`: plain decimals when no longer
+/// than the exponent form ("0.01", "100"), else a tidy exponent ("1e6", "1e-12"). The
+/// canonical text of Float parameters.
 std::string formatNumber(double value);
 
 /// Whether a Float or Int parameter has a finite bound (min > -1e300 or max < 1e300).
 bool hasRange(const ParamSpec& spec);
+/// The range as text, "[1e-12, 1e6]" (Int bounds as whole numbers: "[1, 100000]").
+std::string rangeText(const ParamSpec& spec);
 
 /// Parses "name key=value key=value ..." into a filter name and its raw values.
 /// Tokens are separated by whitespace; '...' or "..." keep whitespace inside a value.

@@ -1,0 +1,80 @@
+#include "pipeline/pipeline.h"
+
+#include "core/error.h"
+#include "core/timer.h"
+
+#include <set>
+
+namespace diffreg {
+
+Pipeline& Pipeline::add(const std::string& filter,
+                        const std::map<std::string, std::string>& values) {
+  steps_.push_back({filter, values});
+  return *this;
+}
+
+void Pipeline::check(const Document& doc) const {
+  std::set<std::string> available;
+  for (const auto& name : doc.mesh.vertexScalarNames()) available.insert(name);
+  for (const auto& name : doc.mesh.elementScalarNames()) available.insert(name);
+
+  for (size_t i = 0; i < steps_.size(); ++i) {
+    const Filter& filter = registry_.get(steps_[i].filter);
+    const ParamMap params(filter.name(), filter.params(), steps_[i].values);
+    if (filter.needsHandles() && doc.handles.empty())
+      throw InvalidParameter("filter " + filter.name() + " needs handles: give --handles");
+    for (const auto& property : filter.requires(params)) {
+      if (available.count(property)) continue;
+      std::string providers;
+      for (const auto& name : registry_.names()) {
+        const Filter& other = registry_.get(name);
+        for (const auto& p : other.produces(ParamMap(name, other.params(), {}))) {
+          if (p == property) providers += (providers.empty() ? "" : ", ") + name;
+        }
+      }
+      throw MissingProperty("step " + std::to_string(i + 1) + " (filter " + filter.name() +
+                            ") needs property '" + property +
+                            "', which neither the mesh nor an earlier step provides" +
+                            (providers.empty() ? std::string(" (no filter produces it)")
+                                               : "; run " + providers + " before it"));
+    }
+    for (const auto& property : filter.produces(params)) available.insert(property);
+  }
+}
+
+nlohmann::json Pipeline::run(Document& doc) const {
+  check(doc);
+  nlohmann::json report;
+  report["mesh"] = {{"path", doc.path},
+                    {"kind", toString(doc.mesh.kind())},
+                    {"vertices", doc.mesh.numVertices()},
+                    {"elements", doc.mesh.numElements()}};
+  report["filters"] = nlohmann::json::array();
+  for (const auto& step : steps_) {
+    const Filter& filter = registry_.get(step.filter);
+    const ParamMap params(filter.name(), filter.params(), step.values);
+    Timer timer;
+    FilterResult result = filter.apply(doc, params);
+    const double seconds = timer.seconds();
+
+    nlohmann::json entry = nlohmann::json::object();
+    if (result.data.is_object()) {
+      entry = result.data;
+    } else if (!result.data.is_null()) {
+      entry["data"] = result.data;
+    }
+    entry["name"] = filter.name();
+    entry["params"] = params.text();
+    entry["seconds"] = seconds;
+    entry["symbolic"] = result.stats.symbolic;
+    entry["numeric"] = result.stats.numeric;
+    entry["solves"] = result.stats.solves;
+    entry["symbolic_seconds"] = result.stats.symbolicSeconds;
+    entry["numeric_seconds"] = result.stats.numericSeconds;
+    entry["solve_seconds"] = result.stats.solveSeconds;
+    report["filters"].push_back(std::move(entry));
+  }
+  return report;
+}
+
+}  // namespace diffreg

@@ -1,0 +1,28 @@
+// Filter deform: variational deformation with the handles as hard constraints, ARAP / ASAP /
+// lARAP / Dirichlet, without, with uniform or with diffusion-weighted regularization.
+#pragma once
+
+#include "pipeline/filter.h"
+
+namespace diffreg {
+
+/// Parameters: energy (arap|asap|larap|dirichlet), regularization (none|uniform|nonuniform),
+/// beta (uniform only), iterations, tolerance. Needs handles, and diffreg:weight for
+/// nonuniform. Moves the mesh to the deformed positions (always solved from the rest shape the
+/// pipeline loaded) and writes diffreg:distortion and diffreg:smoothness per element. Report
+/// data: energy, regularization, beta, initial_guess, iterations, converged, energies.
+/// Records the edit in Document::state (keys "deform.*") for the measure filter.
+class DeformFilter : public Filter {
+ public:
+  std::string name() const override { return "deform"; }
+  std::string description() const override;
+  std::vector<ParamSpec> params() const override;
+  std::vector<std::string> requires(const ParamMap& params) const override;
+  std::vector<std::string> produces(const ParamMap&) const override;
+  bool needsHandles() const override { return true; }
+  /// \throw InvalidParameter (weights outside [0, 1]), SingularSystem (a component without
+  ///        enough handle points).
+  FilterResult apply(Document& doc, const ParamMap& params) const override;
+};
+
+}  // namespace diffreg

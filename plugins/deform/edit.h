@@ -1,0 +1,35 @@
+// What the deform and measure filters share: the edit a document describes (its handles'
+// vertices and targets), solving it, and the per-element maps written back to the mesh.
+#pragma once
+
+#include "deformation/energy.h"
+#include "discretization/discretization.h"
+#include "pipeline/document.h"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace diffreg {
+
+/// The handle vertices, handle by handle, and their targets (one row each, 3 columns).
+struct Edit {
+  std::vector<int> vertices;
+  Eigen::MatrixXd targets;
+};
+Edit editOf(const HandleSet& handles);
+
+/// The discretization of the document's rest shape (the positions the pipeline loaded).
+Discretization restDiscretization(const Document& doc);
+
+/// The mesh positions (n x 3) for deformed positions n x d: planar meshes keep their rest z.
+Eigen::MatrixXd toMeshPositions(const Document& doc, const Eigen::MatrixXd& positions);
+
+/// The document's current positions as the discretization's n x d.
+Eigen::MatrixXd currentPositions(const Document& doc, const Discretization& disc);
+
+/// Writes diffreg:distortion (D_k) and diffreg:smoothness (largest ||e_k - e_l||^2 over the
+/// element's facets) for `positions` (n x d) under `energy`.
+void writeElementMaps(Document& doc, const Discretization& disc, Energy energy,
+                      const Eigen::MatrixXd& positions);
+
+}  // namespace diffreg

@@ -1,0 +1,132 @@
+#include "deform/measure.h"
+
+#include "core/error.h"
+#include "deform/edit.h"
+#include "deformation/deformer.h"
+#include "deformation/metrics.h"
+#include "mesh/io.h"
+
+#include <optional>
+
+namespace diffreg {
+
+namespace {
+
+/// A mesh file that must describe the same vertices as the document (and, for a rest mesh,
+/// the same elements).
+Mesh readMatching(const Document& doc, const std::string& path, const std::string& param,
+                  bool sameElements) {
+  Mesh other = readMesh(path);
+  if (other.numVertices() != doc.mesh.numVertices())
+    throw InvalidParameter("filter measure: parameter '" + param + "': '" + path + "' has " +
+                           std::to_string(other.numVertices()) + " vertices, the mesh has " +
+                           std::to_string(doc.mesh.numVertices()));
+  if (sameElements && other.elements() != doc.mesh.elements())
+    throw InvalidParameter("filter measure: parameter '" + param + "': '" + path +
+                           "' does not have the mesh's elements");
+  return other;
+}
+
+std::string stateOr(const Document& doc, const std::string& key, const std::string& fallback) {
+  const auto it = doc.state.find(key);
+  return it == doc.state.end() ? fallback : it->second;
+}
+
+}  // namespace
+
+std::string MeasureFilter::description() const {
+  return "Deformation quality, as in Table 1 of the paper: per-element distortion D_k (the "
+         "energy density ||e_k||^2), its maximum D_max, area-weighted mean D_ave and deviation "
+         "D_dev, Dist (root mean square vertex distance to the same edit without "
+         "regularization, or to a reference mesh), the number of inverted elements and the "
+         "total energy. Writes diffreg:distortion and diffreg:smoothness per element. Zhu, "
+         "Li, Zhang, Song: Diffusion-based non-uniform regularization for variational shape "
+         "deformation, Computer-Aided Design (2016), Sec. 4.";
+}
+
+std::vector<ParamSpec> MeasureFilter::params() const {
+  std::vector<ParamSpec> specs(3);
+  specs[0].name = "energy";
+  specs[0].type = ParamType::Enum;
+  specs[0].defaultValue = "auto";
+  specs[0].choices = {"auto", "arap", "asap", "larap", "dirichlet"};
+  specs[0].help = "Energy whose residuals define D_k; auto: the deform filter's (else arap).";
+  specs[1].name = "reference";
+  specs[1].type = ParamType::String;
+  specs[1].defaultValue = "";
+  specs[1].help =
+      "Mesh file to measure Dist against; empty: the same edit solved without "
+      "regularization.";
+  specs[2].name = "rest";
+  specs[2].type = ParamType::String;
+  specs[2].defaultValue = "";
+  specs[2].help =
+      "Undeformed mesh file, when the input is already deformed; empty: the mesh as loaded.";
+  return specs;
+}
+
+std::vector<std::string> MeasureFilter::produces(const ParamMap&) const {
+  return {prop::distortion, prop::smoothness};
+}
+
+FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
+  const std::string restPath = params.getString("rest");
+  const Discretization disc =
+      restPath.empty() ? restDiscretization(doc)
+                       : Discretization(readMatching(doc, restPath, "rest", true));
+  std::string energyName = params.getString("energy");
+  if (energyName == "auto") energyName = stateOr(doc, "deform.energy", "arap");
+  const Energy energy = parseEnergy(energyName);
+  const Eigen::MatrixXd positions = currentPositions(doc, disc);
+
+  // The energy is measured with the regularization the deformation used.
+  const Regularization mode = parseRegularization(stateOr(doc, "deform.regularization", "none"));
+  const double beta = std::stod(stateOr(doc, "deform.beta", "0"));
+  Eigen::VectorXd vertexWeights;
+  if (mode == Regularization::Nonuniform) vertexWeights = doc.mesh.vertexScalar(prop::weight);
+  const RegularizationWeights weights = makeRegularizationWeights(disc, mode, beta, vertexWeights);
+
+  FilterResult out;
+  std::optional<Eigen::MatrixXd> reference;
+  nlohmann::json referenceText = nullptr;
+  const std::string referencePath = params.getString("reference");
+  if (!referencePath.empty()) {
+    reference = readMatching(doc, referencePath, "reference", false)
+                    .positions()
+                    .leftCols(disc.dim());
+    referenceText = referencePath;
+  } else if (doc.state.count("deform.energy")) {
+    if (mode == Regularization::None) {
+      reference = positions;  // the deformation is its own unregularized solve
+    } else {
+      const Discretization restDisc = restDiscretization(doc);
+      DeformationOptions options;
+      options.energy = parseEnergy(doc.state.at("deform.energy"));
+      options.maxIterations = std::stoi(doc.state.at("deform.iterations"));
+      options.relTolerance = std::stod(doc.state.at("deform.tolerance"));
+      DeformationSession session(restDisc, options);
+      const Edit edit = editOf(doc.handles);
+      session.setHandles(edit.vertices);
+      session.setTargets(edit.targets);
+      reference = session.solve().positions;
+      out.stats = session.stats();
+    }
+    referenceText = "unregularized solve";
+  }
+
+  const DeformationMetrics m = measureDeformation(disc, energy, positions, weights,
+                                                  reference ? &*reference : nullptr);
+  writeElementMaps(doc, disc, energy, positions);
+  out.data = {{"energy", toString(energy)},
+              {"metrics",
+               {{"D_max", m.dMax},
+                {"D_ave", m.dAve},
+                {"D_dev", m.dDev},
+                {"dist", m.dist ? nlohmann::json(*m.dist) : nlohmann::json(nullptr)},
+                {"inverted", m.inverted},
+                {"energy", m.energy}}},
+              {"dist_reference", referenceText}};
+  return out;
+}
+
+}  // namespace diffreg

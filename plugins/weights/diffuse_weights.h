@@ -1,0 +1,25 @@
+// Filter diffuse_weights: shape-aware regularization weights by heat diffusion from the
+// handles (paper §3.2-3.3), stored as the vertex property diffreg:weight.
+#pragma once
+
+#include "pipeline/filter.h"
+
+namespace diffreg {
+
+/// Parameters: t (float), t_unit (absolute|diagonal|mean_edge2), order
+/// (first|second|implicit_euler), steps (int, implicit Euler). Needs handles; produces
+/// prop::weight. Report data: t_absolute and the min, max and mean weight over referenced
+/// vertices.
+class DiffuseWeightsFilter : public Filter {
+ public:
+  std::string name() const override { return "diffuse_weights"; }
+  std::string description() const override;
+  std::vector<ParamSpec> params() const override;
+  std::vector<std::string> produces(const ParamMap&) const override;
+  bool needsHandles() const override { return true; }
+  /// \throw InvalidMesh (degenerate element), InvalidParameter (handle ids out of range for
+  ///        this mesh), SingularSystem (a solve failed).
+  FilterResult apply(Document& doc, const ParamMap& params) const override;
+};
+
+}  // namespace diffreg

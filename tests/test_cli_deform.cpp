@@ -1,0 +1,132 @@
+// diffreg end to end on the shipped scenarios of all three mesh kinds: diffuse_weights, deform
+// and measure chained on the command line, with the report's metrics and the outputs checked;
+// and the deformation's errors as one line with no output.
+#include "mesh/io.h"
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+using namespace diffreg;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string shipped(const std::string& name) {
+  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
+}
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct Scratch {
+  fs::path dir = fs::temp_directory_path() / ("diffreg-cli-deform-" + std::to_string(::getpid()));
+  Scratch() {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~Scratch() { fs::remove_all(dir); }
+
+  /// Runs the tool in the scratch directory; returns the exit code, stderr in `err`.
+  int run(const std::string& args, std::string* err = nullptr) const {
+    const std::string command = "cd '" + dir.string() + "' && '" + DIFFREG_TOOL + "' " + args +
+                                " > stdout.txt 2> stderr.txt";
+    const int status = std::system(command.c_str());
+    if (err) *err = slurp(dir / "stderr.txt");
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  bool has(const std::string& name) const { return fs::exists(dir / name); }
+};
+
+}  // namespace
+
+TEST_CASE("diffreg chains diffuse_weights, deform and measure on planar, surface and tet "
+          "scenarios",
+          "[cli][deform]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  for (const auto& [mesh, handles, outputs] :
+       {std::tuple{"bar.obj", "bar-bend.json", "-o out.ply"},
+        std::tuple{"cylinder.obj", "cylinder-twist.json", "-o out.ply"},
+        std::tuple{"tetbar.mesh", "tetbar-bend.json", "-o out.mesh -o out.ply"}}) {
+    INFO(mesh);
+    Scratch s;
+    std::string err;
+    const int code = s.run("-i '" + shipped(mesh) + "' --handles '" + shipped(handles) +
+                               "' --filter 'diffuse_weights t=0.01' --filter 'deform "
+                               "energy=arap regularization=nonuniform iterations=10' --filter "
+                               "measure " + outputs + " --report r.json --quiet",
+                           &err);
+    INFO(err);
+    REQUIRE(code == 0);
+    CHECK(err.empty());
+    const auto report = nlohmann::json::parse(slurp(s.dir / "r.json"));
+    const auto& filters = report["filters"];
+    REQUIRE(filters.size() == 3);
+    CHECK(filters[1]["name"] == "deform");
+    CHECK(filters[1]["energies"].size() >= 1);
+    CHECK(filters[1]["iterations"].get<int>() <= 10);
+    const auto& metrics = filters[2]["metrics"];
+    for (const char* key : {"D_max", "D_ave", "D_dev", "dist", "inverted", "energy"}) {
+      INFO(key);
+      REQUIRE(metrics.contains(key));
+      CHECK(metrics[key].is_number());
+    }
+    CHECK(metrics["D_max"].get<double>() >= metrics["D_ave"].get<double>());
+    CHECK(metrics["dist"].get<double>() > 0.0);
+
+    // The PLY carries the distortion as face quality; a tet mesh's PLY is its boundary.
+    const Mesh written = readMesh((s.dir / "out.ply").string());
+    const std::string ply = slurp(s.dir / "out.ply");
+    const std::string header = ply.substr(0, ply.find("end_header"));
+    CHECK(header.find("element face") != std::string::npos);
+    CHECK(header.substr(header.find("element face")).find("property float quality") !=
+          std::string::npos);
+    CHECK(written.numVertices() > 0);
+    if (std::string(mesh) == "tetbar.mesh") {
+      const Mesh tets = readMesh((s.dir / "out.mesh").string());
+      CHECK(tets.isTet());
+      CHECK(tets.numElements() == 1536);
+    }
+  }
+}
+
+TEST_CASE("diffreg: deformation errors are one line and write nothing", "[cli][deform]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s;
+  // Two separate triangles; the handle pins only the first: the second is free.
+  std::ofstream(s.dir / "two.off") << "OFF\n6 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 0\n4 0 0\n3 1 0\n"
+                                      "3 0 1 2\n3 3 4 5\n";
+  std::ofstream(s.dir / "h.json") << R"({"handles": [{"vertices": [0, 1], "translate": [1, 0]}]})";
+  std::ofstream(s.dir / "bar.json") << slurp(shipped("bar-bend.json"));
+  const std::string bar = "-i '" + shipped("bar.obj") + "' --handles bar.json ";
+  const std::pair<std::string, std::string> cases[] = {
+      {"-i two.off --handles h.json --filter deform -o out.ply", "component"},
+      {bar + "--filter 'deform beta=2' -o out.ply", "beta"},
+      {bar + "--filter 'deform energy=rigid' -o out.ply", "energy"},
+      {bar + "--filter 'deform regularization=nonuniform' -o out.ply", "diffreg:weight"},
+      {bar + "--filter deform --filter 'measure reference=nothere.ply' -o out.ply", "nothere.ply"},
+      {bar + "--filter deform -o out.ply -o out.ply", "twice"},
+  };
+  for (const auto& [args, needle] : cases) {
+    INFO(args);
+    std::string err;
+    CHECK(s.run(args, &err) != 0);
+    INFO(err);
+    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+    CHECK(err.find(needle) != std::string::npos);
+    CHECK_FALSE(s.has("out.ply"));
+  }
+}

@@ -1,0 +1,273 @@
+// Pipeline: checks before any work (filters, parameters, handles, properties), the report, and
+// the built-in diffuse_weights filter agreeing with the library's one-shot function.
+#include "pipeline/pipeline.h"
+
+#include "core/error.h"
+#include "discretization/discretization.h"
+#include "mesh/io.h"
+#include "mesh/shapes.h"
+#include "plugins.h"
+#include "weights/diffusion.h"
+
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <unistd.h>
+
+using namespace diffreg;
+
+namespace {
+
+/// A configurable test filter that counts its applications.
+class Probe : public Filter {
+ public:
+  Probe(std::string name, std::vector<std::string> needs, std::vector<std::string> makes,
+        bool handles, int* applied)
+      : name_(std::move(name)),
+        needs_(std::move(needs)),
+        makes_(std::move(makes)),
+        handles_(handles),
+        applied_(applied) {}
+  std::string name() const override { return name_; }
+  std::string description() const override { return "probe"; }
+  std::vector<ParamSpec> params() const override {
+    ParamSpec k;
+    k.name = "k";
+    k.type = ParamType::Int;
+    k.defaultValue = "1";
+    k.min = 0;
+    k.max = 10;
+    return {k};
+  }
+  std::vector<std::string>
+  requires(const ParamMap&) const override { return needs_; }
+  std::vector<std::string> produces(const ParamMap&) const override { return makes_; }
+  bool needsHandles() const override { return handles_; }
+  FilterResult apply(Document& doc, const ParamMap& params) const override {
+    ++*applied_;
+    for (const auto& p : makes_)
+      doc.mesh.setVertexScalar(p, Eigen::VectorXd::Constant(doc.mesh.numVertices(), 1.0));
+    FilterResult r;
+    r.stats.numeric = params.getInt("k");
+    r.data = {{"k_seen", params.getInt("k")}};
+    return r;
+  }
+
+ private:
+  std::string name_;
+  std::vector<std::string> needs_, makes_;
+  bool handles_;
+  int* applied_;
+};
+
+struct Fixture {
+  int applied = 0;
+  Registry registry;
+  Document doc;
+  Fixture() {
+    registry.add(std::make_unique<Probe>("make_a", std::vector<std::string>{},
+                                         std::vector<std::string>{"test:a"}, false, &applied));
+    registry.add(std::make_unique<Probe>("also_a", std::vector<std::string>{},
+                                         std::vector<std::string>{"test:a"}, false, &applied));
+    registry.add(std::make_unique<Probe>("use_a", std::vector<std::string>{"test:a"},
+                                         std::vector<std::string>{}, false, &applied));
+    registry.add(std::make_unique<Probe>("grab", std::vector<std::string>{},
+                                         std::vector<std::string>{}, true, &applied));
+    doc.mesh = makeRectangle(2.0, 1.0, 4, 2);
+    doc.rest = doc.mesh.positions();
+  }
+};
+
+/// Two handles on a rectangle: its left edge (m = 1) and its right edge (m = 0.5).
+HandleSet edgeHandles(const Mesh& mesh, double width) {
+  HandleSet set;
+  set.handles.resize(2);
+  set.handles[0].name = "left";
+  set.handles[1].name = "right";
+  set.handles[1].magnitude = 0.5;
+  const Eigen::MatrixXd p = mesh.positions();
+  for (int i = 0; i < p.rows(); ++i) {
+    if (p(i, 0) == 0.0) set.handles[0].vertices.push_back(i);
+    if (p(i, 0) == width) set.handles[1].vertices.push_back(i);
+  }
+  for (auto& h : set.handles) {
+    h.targets.resize(static_cast<int>(h.vertices.size()), 3);
+    for (int r = 0; r < h.targets.rows(); ++r) h.targets.row(r) = p.row(h.vertices[r]);
+  }
+  return set;
+}
+
+}  // namespace
+
+TEST_CASE("Pipeline::check names the missing property, the step and who provides it") {
+  Fixture f;
+  Pipeline pipeline(f.registry);
+  pipeline.add("grab_not").add("use_a");
+  CHECK_THROWS_WITH(pipeline.check(f.doc),
+                    "unknown filter 'grab_not' (filters: also_a, grab, make_a, use_a)");
+
+  Pipeline missing(f.registry);
+  missing.add("make_a", {{"k", "2"}}).add("use_a").add("use_a");
+  missing.check(f.doc);  // make_a provides test:a to both later steps
+
+  Pipeline first(f.registry);
+  first.add("use_a").add("make_a");
+  CHECK_THROWS_AS(first.check(f.doc), MissingProperty);
+  CHECK_THROWS_WITH(first.check(f.doc),
+                    "step 1 (filter use_a) needs property 'test:a', which neither the mesh nor an "
+                    "earlier step provides; run also_a, make_a before it");
+
+  // A property the mesh already carries satisfies the requirement.
+  f.doc.mesh.setVertexScalar("test:a", Eigen::VectorXd::Zero(f.doc.mesh.numVertices()));
+  first.check(f.doc);
+  CHECK(f.applied == 0);
+}
+
+TEST_CASE("Pipeline::check rejects bad parameters and missing handles") {
+  Fixture f;
+  Pipeline bad(f.registry);
+  bad.add("make_a").add("use_a", {{"k", "11"}});
+  CHECK_THROWS_WITH(bad.check(f.doc), "filter use_a: parameter 'k' = '11' is out of range [0, 10]");
+  Pipeline unknown(f.registry);
+  unknown.add("make_a", {{"kk", "1"}});
+  CHECK_THROWS_WITH(unknown.check(f.doc), "filter make_a has no parameter 'kk' (parameters: k)");
+  Pipeline handles(f.registry);
+  handles.add("grab");
+  CHECK_THROWS_WITH(handles.check(f.doc), "filter grab needs handles: give --handles");
+}
+
+TEST_CASE("Pipeline::run does no work when a later step is invalid") {
+  Fixture f;
+  Pipeline pipeline(f.registry);
+  pipeline.add("make_a").add("use_a", {{"k", "x"}});
+  CHECK_THROWS_AS(pipeline.run(f.doc), InvalidParameter);
+  CHECK(f.applied == 0);
+  CHECK_FALSE(f.doc.mesh.hasVertexScalar("test:a"));
+}
+
+TEST_CASE("Pipeline::run reports every step with canonical parameters and counters") {
+  Fixture f;
+  f.doc.path = "in-memory";
+  Pipeline pipeline(f.registry);
+  pipeline.add("make_a", {{"k", "03"}}).add("use_a");
+  const nlohmann::json report = pipeline.run(f.doc);
+  CHECK(f.applied == 2);
+  CHECK(report["mesh"]["path"] == "in-memory");
+  CHECK(report["mesh"]["kind"] == "planar");
+  CHECK(report["mesh"]["vertices"] == f.doc.mesh.numVertices());
+  CHECK(report["mesh"]["elements"] == f.doc.mesh.numElements());
+  REQUIRE(report["filters"].size() == 2);
+  const auto& first = report["filters"][0];
+  CHECK(first["name"] == "make_a");
+  CHECK(first["params"] == nlohmann::json{{"k", "3"}});
+  CHECK(first["numeric"] == 3);
+  CHECK(first["symbolic"] == 0);
+  CHECK(first["k_seen"] == 3);
+  CHECK(first["seconds"].get<double>() >= 0.0);
+  CHECK(report["filters"][1]["params"] == nlohmann::json{{"k", "1"}});
+}
+
+TEST_CASE("The built-in registry holds diffuse_weights with its parameter table") {
+  const Registry& registry = Registry::builtin();
+  CHECK(&registry == &Registry::builtin());
+  REQUIRE(registry.has("diffuse_weights"));
+  const Filter& filter = registry.get("diffuse_weights");
+  CHECK(filter.needsHandles());
+  const auto specs = filter.params();
+  REQUIRE(specs.size() == 4);
+  CHECK(specs[0].name == "t");
+  CHECK(specs[0].type == ParamType::Float);
+  CHECK(specs[1].name == "t_unit");
+  CHECK(specs[1].choices == std::vector<std::string>{"absolute", "diagonal", "mean_edge2"});
+  CHECK(specs[2].name == "order");
+  CHECK(specs[2].choices == std::vector<std::string>{"first", "second", "implicit_euler"});
+  CHECK(specs[3].name == "steps");
+  CHECK(specs[3].type == ParamType::Int);
+  const ParamMap defaults("diffuse_weights", specs, {});
+  CHECK(defaults.text() ==
+        std::map<std::string, std::string>{
+            {"t", "0.01"}, {"t_unit", "diagonal"}, {"order", "second"}, {"steps", "100"}});
+  CHECK(filter.produces(defaults) == std::vector<std::string>{prop::weight});
+  CHECK(filter.description().find("Computer-Aided Design") != std::string::npos);
+  // Every parameter choice maps onto the library's own names.
+  for (const auto& unit : specs[1].choices) CHECK(toString(parseTimeUnit(unit)) == unit);
+  for (const auto& order : specs[2].choices) CHECK(toString(parseDiffusionOrder(order)) == order);
+}
+
+TEST_CASE("diffuse_weights in a pipeline equals the one-shot library function") {
+  Document doc;
+  doc.mesh = makeRectangle(2.0, 1.0, 8, 4);
+  doc.rest = doc.mesh.positions();
+  doc.handles = edgeHandles(doc.mesh, 2.0);
+  REQUIRE(doc.handles.handles[0].vertices.size() > 1);
+
+  for (const std::string order : {"first", "second", "implicit_euler"}) {
+    Document work = doc;
+    Pipeline pipeline;
+    pipeline.add("diffuse_weights", {{"t", "0.02"}, {"order", order}, {"steps", "20"}});
+    const nlohmann::json report = pipeline.run(work);
+    REQUIRE(work.mesh.hasVertexScalar(prop::weight));
+    const Eigen::VectorXd x = work.mesh.vertexScalar(prop::weight);
+
+    DiffusionParams params;
+    params.t = 0.02;
+    params.order = parseDiffusionOrder(order);
+    params.steps = 20;
+    const Eigen::VectorXd expected = diffuseWeights(Discretization(doc.mesh), doc.handles, params);
+    CHECK((x - expected).cwiseAbs().maxCoeff() <= 1e-12);
+
+    // Handle values are the magnitudes; everything stays within [0, max m] (small tolerance
+    // for the second-order scheme).
+    for (int v : doc.handles.handles[0].vertices) CHECK(x[v] == Approx(1.0));
+    for (int v : doc.handles.handles[1].vertices) CHECK(x[v] == Approx(0.5));
+    CHECK(x.minCoeff() >= -1e-3);
+    CHECK(x.maxCoeff() <= 1.0 + 1e-3);
+
+    const auto& entry = report["filters"][0];
+    CHECK(entry["name"] == "diffuse_weights");
+    CHECK(entry["params"]["order"] == order);
+    CHECK(entry["params"]["t_unit"] == "diagonal");
+    CHECK(entry["symbolic"] == 1);
+    CHECK(entry["numeric"] == 1);
+    CHECK(entry["solves"].get<int>() >= 1);
+    CHECK(entry["t_absolute"].get<double>() == Approx(0.02 * (4.0 + 1.0)));
+    CHECK(entry["min"].get<double>() == Approx(x.minCoeff()));
+    CHECK(entry["max"].get<double>() == Approx(x.maxCoeff()));
+    CHECK(entry["mean"].get<double>() == Approx(x.mean()));
+  }
+}
+
+TEST_CASE("diffuse_weights without handles fails in check, before any work") {
+  Document doc;
+  doc.mesh = makeRectangle(1.0, 1.0, 2, 2);
+  doc.rest = doc.mesh.positions();
+  Pipeline pipeline;
+  pipeline.add("diffuse_weights");
+  CHECK_THROWS_WITH(pipeline.run(doc), "filter diffuse_weights needs handles: give --handles");
+  CHECK_FALSE(doc.mesh.hasVertexScalar(prop::weight));
+}
+
+TEST_CASE("Document::load reads the mesh, the handles and the rest positions") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("diffreg-doc-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string meshPath = (dir / "bar.off").string();
+  const std::string handlePath = (dir / "h.json").string();
+  writeMesh(meshPath, makeRectangle(2.0, 1.0, 4, 2));
+  std::ofstream(handlePath) << R"({"handles": [{"name": "a", "vertices": [0, 1]},
+                                               {"name": "b", "vertices": [5], "range": 2}]})";
+
+  const Document doc = Document::load(meshPath, handlePath);
+  CHECK(doc.path == meshPath);
+  CHECK(doc.mesh.kind() == MeshKind::Planar);
+  CHECK(doc.rest.rows() == doc.mesh.numVertices());
+  CHECK((doc.rest - doc.mesh.positions()).norm() == 0.0);
+  REQUIRE(doc.handles.handles.size() == 2);
+  CHECK(doc.handles.handles[1].range == 2.0);
+  CHECK(Document::load(meshPath).handles.empty());
+  CHECK_THROWS_AS(Document::load((dir / "none.off").string()), IoError);
+  fs::remove_all(dir);
+}

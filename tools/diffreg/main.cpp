@@ -1,0 +1,262 @@
+// diffreg: applies registered filters to a mesh and writes the result and a JSON report.
+//
+//   diffreg -i IN [--handles H.json] [--filter 'NAME key=value ...']... -o OUT [--report R.json]
+//   diffreg filters
+//
+// Every check (options, filters, parameters, needed handles and properties, output paths)
+// happens before any work; output files appear only when everything succeeded. Errors print
+// one line "diffreg: error: ..." on stderr; the exit code is 2 for usage errors, else 1.
+
+#include "core/error.h"
+#include "core/log.h"
+#include "mesh/io.h"
+#include "pipeline/pipeline.h"
+#include "plugins.h"
+
+#include <boost/program_options.hpp>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#ifndef DIFFREG_VERSION
+#define DIFFREG_VERSION "0.1.0"
+#endif
+
+namespace po = boost::program_options;
+namespace fs = std::filesystem;
+
+namespace diffreg {
+namespace {
+
+/// A mistake in the command line itself (exit code 2).
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+const char* kUsage =
+    "Usage: diffreg -i IN [--handles H.json] [--filter 'NAME key=value ...']... -o OUT\n"
+    "               [--report R.json] [--quiet]\n"
+    "       diffreg filters      list every filter with its parameters\n"
+    "       diffreg --help | --version\n"
+    "\n"
+    "Applies the filters in the order given to the mesh IN and writes OUT; the extension of\n"
+    "OUT picks the format (obj, off, ply, om for triangle meshes; mesh, or ply for the boundary\n"
+    "surface of a tet mesh); -o may be repeated. PLY output carries the weights as vertex\n"
+    "quality and colours and the distortion as face quality. Without --filter the mesh\n"
+    "is only converted. Nothing is written when anything fails.\n";
+
+/// Wraps `text` to `width` columns, each line starting with `indent`.
+std::string wrap(const std::string& text, const std::string& indent, size_t width = 78) {
+  std::istringstream words(text);
+  std::string word, line, out;
+  while (words >> word) {
+    if (!line.empty() && indent.size() + line.size() + 1 + word.size() > width) {
+      out += indent + line + "\n";
+      line.clear();
+    }
+    line += (line.empty() ? "" : " ") + word;
+  }
+  if (!line.empty()) out += indent + line + "\n";
+  return out;
+}
+
+std::string join(const std::vector<std::string>& items, const char* separator) {
+  std::string out;
+  for (size_t i = 0; i < items.size(); ++i) out += (i ? separator : "") + items[i];
+  return out;
+}
+
+/// The `diffreg filters` listing, generated from the registry's parameter tables.
+std::string describeFilters(const Registry& registry) {
+  std::string out;
+  for (const auto& name : registry.names()) {
+    const Filter& filter = registry.get(name);
+    const ParamMap defaults(name, filter.params(), {});
+    std::vector<std::string> notes;
+    if (filter.needsHandles()) notes.push_back("needs handles");
+    const auto needs = filter.requires(defaults);
+    if (!needs.empty()) notes.push_back("requires " + join(needs, ", "));
+    const auto makes = filter.produces(defaults);
+    if (!makes.empty()) notes.push_back("produces " + join(makes, ", "));
+    out += name + (notes.empty() ? "" : "  (" + join(notes, "; ") + ")") + "\n";
+    out += wrap(filter.description(), "  ");
+    const auto specs = filter.params();
+    out += specs.empty() ? "  No parameters.\n" : "  Parameters:\n";
+    for (const auto& spec : specs) {
+      std::string type = toString(spec.type);
+      if (spec.type == ParamType::Enum) type += ": " + join(spec.choices, " | ");
+      if (hasRange(spec)) type += " in " + rangeText(spec);
+      out += "    " + spec.name + " = " + defaults.text().at(spec.name) + "  (" + type + ")\n";
+      out += wrap(spec.help, "        ");
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+/// Throws IoError unless the directory that would hold `path` exists.
+void checkWritableDir(const std::string& path) {
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    throw IoError("cannot write '" + path + "': directory '" + dir.string() + "' does not exist");
+}
+
+/// A temporary name beside `path` with the same extension (writeMesh picks the format by it).
+std::string temporaryName(const std::string& path) {
+  const fs::path p(path);
+  return (p.parent_path() / ("." + p.stem().string() + ".tmp" + std::to_string(::getpid()) +
+                             p.extension().string()))
+      .string();
+}
+
+/// Files written under temporary names, renamed into place together by commit(); whatever was
+/// not committed is removed, so a failed run leaves no new or clobbered file.
+class StagedOutputs {
+ public:
+  ~StagedOutputs() {
+    for (const auto& [tmp, path] : staged_) std::remove(tmp.c_str());
+  }
+  /// Returns the temporary name to write `path` to.
+  std::string stage(const std::string& path) {
+    staged_.emplace_back(temporaryName(path), path);
+    return staged_.back().first;
+  }
+  void commit() {
+    for (const auto& [tmp, path] : staged_)
+      if (std::rename(tmp.c_str(), path.c_str()) != 0)
+        throw IoError("cannot write '" + path + "': " + std::strerror(errno));
+    staged_.clear();
+  }
+
+ private:
+  std::vector<std::pair<std::string, std::string>> staged_;
+};
+
+int runPipeline(const po::variables_map& vm) {
+  if (!vm.count("input")) throw UsageError("missing -i IN (see diffreg --help)");
+  if (!vm.count("output")) throw UsageError("missing -o OUT (see diffreg --help)");
+  const std::string input = vm["input"].as<std::string>();
+  const auto outputs = vm["output"].as<std::vector<std::string>>();
+  const std::string handles = vm.count("handles") ? vm["handles"].as<std::string>() : "";
+  const std::string reportPath = vm.count("report") ? vm["report"].as<std::string>() : "";
+
+  // Everything that can be checked before work is checked first.
+  Pipeline pipeline;
+  if (vm.count("filter")) {
+    for (const auto& spec : vm["filter"].as<std::vector<std::string>>()) {
+      const auto [name, values] = parseFilterSpec(spec);
+      pipeline.add(name, values);
+    }
+  }
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    checkWritableDir(outputs[i]);
+    bool twice = !reportPath.empty() && fs::absolute(outputs[i]) == fs::absolute(reportPath);
+    for (size_t j = 0; j < i; ++j) twice = twice || fs::absolute(outputs[i]) == fs::absolute(outputs[j]);
+    if (twice) throw UsageError("output '" + outputs[i] + "' given twice");
+  }
+  if (!reportPath.empty()) checkWritableDir(reportPath);
+
+  Document doc = Document::load(input, handles);
+  for (const auto& output : outputs) checkWritable(output, doc.mesh.kind());
+  pipeline.check(doc);
+  const nlohmann::json report = pipeline.run(doc);
+
+  StagedOutputs staged;
+  for (const auto& output : outputs) writeMesh(staged.stage(output), doc.mesh);
+  if (!reportPath.empty()) {
+    const std::string tmp = staged.stage(reportPath);
+    std::ofstream out(tmp, std::ios::binary);
+    out << report.dump(2) << "\n";
+    out.close();
+    if (!out) throw IoError("cannot write '" + reportPath + "'");
+  }
+  staged.commit();
+  info("wrote " + join(outputs, ", ") + (reportPath.empty() ? "" : " and " + reportPath));
+  return 0;
+}
+
+int run(int argc, char** argv) {
+  po::options_description visible("Options");
+  visible.add_options()                                                                        //
+      ("help,h", "show this help and the filter names")                                        //
+      ("version", "show the version")                                                          //
+      ("input,i", po::value<std::string>(), "input mesh (obj, off, ply, om, mesh, node/ele)")  //
+      ("output,o", po::value<std::vector<std::string>>()->composing(),
+       "output mesh; the extension picks the format; repeat for several")  //
+      ("handles", po::value<std::string>(), "handle file (JSON)")                              //
+      ("filter,f", po::value<std::vector<std::string>>()->composing(),
+       "'NAME key=value ...': a filter to apply; repeat for a chain, applied in order")  //
+      ("report,r", po::value<std::string>(), "write a JSON report of the run")           //
+      ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
+  po::options_description hidden;
+  hidden.add_options()("command", po::value<std::vector<std::string>>());
+  po::options_description all;
+  all.add(visible).add(hidden);
+  po::positional_options_description positional;
+  positional.add("command", -1);
+
+  po::variables_map vm;
+  po::store(po::command_line_parser(argc, argv).options(all).positional(positional).run(), vm);
+  po::notify(vm);
+  if (vm["quiet"].as<bool>()) setQuiet(true);
+
+  const Registry& registry = Registry::builtin();
+  if (vm.count("help")) {
+    std::cout << kUsage << "\n"
+              << visible << "\nFilters (details: diffreg filters): " << join(registry.names(), ", ")
+              << "\n";
+    return 0;
+  }
+  if (vm.count("version")) {
+    std::cout << "diffreg " << DIFFREG_VERSION << "\n";
+    return 0;
+  }
+  if (vm.count("command")) {
+    const auto commands = vm["command"].as<std::vector<std::string>>();
+    if (commands.size() != 1 || commands[0] != "filters") {
+      throw UsageError("unexpected argument '" +
+                       (commands[0] == "filters" ? commands[1] : commands[0]) +
+                       "' (commands: filters; see diffreg --help)");
+    }
+    std::cout << describeFilters(registry);
+    return 0;
+  }
+  return runPipeline(vm);
+}
+
+/// Prints the one error line, with any line breaks in `message` folded into spaces.
+void printError(const std::string& message) {
+  std::string line = message;
+  for (char& c : line)
+    if (c == '\n' || c == '\r') c = ' ';
+  std::cerr << "diffreg: error: " << line << std::endl;
+}
+
+}  // namespace
+}  // namespace diffreg
+
+int main(int argc, char** argv) {
+  try {
+    return diffreg::run(argc, argv);
+  } catch (const diffreg::UsageError& e) {
+    diffreg::printError(e.what());
+    return 2;
+  } catch (const po::error& e) {
+    diffreg::printError(e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    diffreg::printError(e.what());
+    return 1;
+  }
+}
