@@ -1,0 +1,91 @@
+// diffreg-bench: shared types of the benchmark cases (weights, deformation, the CGAL peer and
+// the memory probe). Every case measures each metric once per repeat; the runner keeps medians.
+#pragma once
+
+#include "mesh/mesh.h"
+
+#include <Eigen/Core>
+#include <functional>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace diffreg::bench {
+
+/// One measured quantity of one repeat: seconds unless the name says otherwise.
+using Sample = std::vector<std::pair<std::string, double>>;
+
+/// A mesh together with how it was made (for the table and the JSON).
+struct BenchMesh {
+  std::string label;   ///< short name in case names, e.g. "sphere-10k"
+  std::string source;  ///< "makeSphere(1, 128, 80)" or a file path
+  Mesh mesh;
+};
+
+/// What a case's preparation built: the mesh facts, or why the case cannot run.
+struct Prepared {
+  bool available = true;
+  std::string skipReason;  ///< when not available, e.g. "../shared/meshes/tet-bar.mesh absent"
+  std::string source;      ///< how the mesh was made or where it was read
+  int vertices = 0, elements = 0;
+  std::map<std::string, double> facts;  ///< untimed extras worth printing (e.g. handle count)
+};
+
+/// One benchmark case: `run` performs one repeat and returns its metrics.
+struct Case {
+  std::string group;   ///< "weights", "deform", "peer", "memory"
+  std::string name;    ///< unique, e.g. "weights/eq8/tet-21k"; --filter matches it
+  std::string series;  ///< deformation: "planar", "surface", "tet" (for the exponent fit)
+  int maxRepeats = 0;  ///< > 0: at most this many repeats (the largest meshes)
+  /// Paper figures to print beside ours (metric -> seconds).
+  std::map<std::string, double> paper;
+  std::function<Prepared()> prepare;  ///< builds meshes and anything untimed, once
+  std::function<Sample()> run;
+  std::function<void()> release;  ///< frees what prepare() built
+};
+
+struct Sizes {
+  bool quick = false;
+};
+
+/// Where the shared test meshes are: setSharedMeshDirectory(), else $DIFFREG_SHARED_MESHES, else
+/// ../shared/meshes beside the source tree.
+void setSharedMeshDirectory(const std::string& dir);
+std::string sharedMeshDirectory();
+/// Reads a mesh from sharedMeshDirectory() when the file exists; false (and a note) when absent.
+bool sharedMesh(const std::string& file, Mesh& mesh, std::string& path);
+
+/// Appends the cases of each group.
+void addWeightCases(std::vector<Case>& cases, const Sizes& sizes);
+void addDeformationCases(std::vector<Case>& cases, const Sizes& sizes);
+void addPeerCases(std::vector<Case>& cases, const Sizes& sizes);
+
+/// The memory probe's session (run in a child process): a surface sphere with about `vertices`
+/// vertices, diffused weights, a nonuniform ARAP session and one handle move of 5 iterations.
+void runMemorySession(int vertices);
+
+/// Handles used by the deformation and peer cases: a fixed region at the low end of the
+/// longest bounding-box axis and a moved region at the high end, each `fraction` of its
+/// length deep. Returns {fixed, moved} vertex lists.
+std::pair<std::vector<int>, std::vector<int>> endHandles(const Eigen::MatrixXd& rest,
+                                                         double fraction);
+/// Targets of a handle move: the fixed handle at rest, the moved one translated by `offset`
+/// along the longest axis and slightly sideways (rows in the order fixed then moved).
+Eigen::MatrixXd moveTargets(const Eigen::MatrixXd& rest, const std::vector<int>& fixed,
+                            const std::vector<int>& moved, double offset, int dim);
+
+/// The CGAL peer on a surface mesh (positions n x 3, triangles m x 3): Surface_mesh_deformation
+/// (ARAP, spokes and rims, CGAL's default Eigen SparseLU) with the whole mesh as region of
+/// interest and `handles` as control vertices. Returns setup (construction + ROI + control +
+/// preprocess), deform(1) latency and deform(1 + extra) latency after set_target_position.
+struct PeerTimes {
+  double preprocess = 0.0, latency1 = 0.0, latencyMore = 0.0;
+};
+PeerTimes runCgalArap(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles,
+                      const std::vector<int>& handles, const Eigen::MatrixXd& targets,
+                      int extraIterations);
+/// "Eigen::SparseLU<COLAMDOrdering> (CGAL 5.5 default), spokes-and-rims ARAP".
+std::string cgalDescription();
+
+}  // namespace diffreg::bench

@@ -1,0 +1,620 @@
+// diffreg-bench: times diffused weights (paper eq. 7 / eq. 8), the regularized ARAP session and
+// CGAL's Surface_mesh_deformation on the same problems, and the peak memory of a 100K-vertex
+// surface session; prints the medians of several repeats as tables and writes them as JSON.
+#include "bench.h"
+#include "core/error.h"
+#include "core/log.h"
+#include "core/timer.h"
+#include "solver/solver.h"
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace diffreg::bench {
+namespace {
+
+constexpr const char* kMemoryFlag = "--memory-case";
+
+struct Options {
+  int repeats = 5;
+  bool quick = false;
+  std::string json, filter;
+};
+
+void printUsage(std::ostream& out) {
+  out << "Usage: diffreg-bench [--quick] [--repeats N] [--filter SUBSTRING] [--json FILE]\n"
+         "                     [--meshes DIR]\n\n"
+         "Times, as the median of N repeats (default 5; --quick: 3 repeats on small meshes):\n"
+         "  weights/eq7|eq8/MESH  symbolic analysis, numeric factorization and solve of the\n"
+         "                        diffused weights (paper eq. 7 / eq. 8) beside the paper's §4\n"
+         "  deform/KIND/SIZE      nonuniformly regularized ARAP: factorization, one iteration,\n"
+         "                        handle moves of 1 and 5 iterations; fitted growth exponents\n"
+         "  peer/sphere-SIZE      plain ARAP against CGAL's Surface_mesh_deformation\n"
+         "  memory/sphere-SIZE    peak resident memory of a surface session (child process)\n"
+         "--filter runs only the cases whose name contains SUBSTRING. The shared test meshes\n"
+         "(--meshes, else $DIFFREG_SHARED_MESHES, else ../shared/meshes beside the source tree)\n"
+         "are used when present; their cases are skipped otherwise.\n";
+}
+
+// ---- machine facts -------------------------------------------------------------------------
+
+std::string firstLineWith(const std::string& path, const std::string& key) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind(key, 0) == 0) {
+      const auto colon = line.find(':');
+      std::string value = colon == std::string::npos ? line : line.substr(colon + 1);
+      value.erase(0, value.find_first_not_of(" \t"));
+      return value;
+    }
+  return "unknown";
+}
+
+// The BLAS and LAPACK libraries this process actually mapped (through CHOLMOD).
+std::string mappedLibraries(const std::vector<std::string>& needles) {
+  std::ifstream maps("/proc/self/maps");
+  std::string line;
+  std::vector<std::string> found;
+  while (std::getline(maps, line)) {
+    const auto slash = line.find('/');
+    if (slash == std::string::npos) continue;
+    const std::string path = line.substr(slash);
+    const std::string file = std::filesystem::path(path).filename().string();
+    for (const std::string& n : needles)
+      if (file.find(n) != std::string::npos &&
+          std::find(found.begin(), found.end(), path) == found.end())
+        found.push_back(path);
+  }
+  std::string out;
+  for (const std::string& f : found) out += (out.empty() ? "" : ", ") + f;
+  return out.empty() ? "none mapped" : out;
+}
+
+nlohmann::json machineFacts() {
+  nlohmann::json m;
+  m["nproc"] = static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN));
+  m["cpu"] = firstLineWith("/proc/cpuinfo", "model name");
+  m["memory_total"] = firstLineWith("/proc/meminfo", "MemTotal");
+  const std::time_t now = std::time(nullptr);
+  char date[64];
+  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&now));
+  m["date"] = date;
+  m["solver"] =
+      std::string(toString(defaultSolverBackend())) +
+      (defaultSolverBackend() == SolverBackend::Cholmod ? " (supernodal Cholesky, SuiteSparse)"
+                                                        : " (Eigen SimplicialLDLT)");
+  std::error_code ec;
+  const auto blas =
+      std::filesystem::read_symlink("/etc/alternatives/libblas.so.3-x86_64-linux-gnu", ec);
+  m["blas_alternative"] = ec ? std::string("unknown") : blas.string();
+  m["blas_mapped"] = mappedLibraries({"blas", "lapack"});
+  const char* threads = std::getenv("OPENBLAS_NUM_THREADS");
+  m["openblas_num_threads"] = threads ? threads : "unset";
+  m["compiler"] = std::string("GCC ") + __VERSION__;
+#ifdef NDEBUG
+  m["build"] = "optimized (NDEBUG)";
+#else
+  m["build"] = "debug (assertions on)";
+#endif
+  m["peer"] = cgalDescription();
+  return m;
+}
+
+// ---- statistics ----------------------------------------------------------------------------
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Least-squares slope of log(y) against log(x).
+double fitExponent(const std::vector<double>& x, const std::vector<double>& y) {
+  const size_t n = x.size();
+  double mx = 0, my = 0;
+  for (size_t i = 0; i < n; ++i) {
+    mx += std::log(x[i]) / n;
+    my += std::log(y[i]) / n;
+  }
+  double sxy = 0, sxx = 0;
+  for (size_t i = 0; i < n; ++i) {
+    sxy += (std::log(x[i]) - mx) * (std::log(y[i]) - my);
+    sxx += (std::log(x[i]) - mx) * (std::log(x[i]) - mx);
+  }
+  return sxx > 0 ? sxy / sxx : NAN;
+}
+
+struct Result {
+  const Case* c = nullptr;
+  Prepared prepared;
+  int repeats = 0;
+  double seconds = 0.0;  // wall time of all repeats
+  Sample medians;        // same order as the case's samples
+  std::string error;
+
+  bool has(const std::string& k) const {
+    for (const auto& [name, v] : medians)
+      if (name == k) return true;
+    return false;
+  }
+  double get(const std::string& k) const {
+    for (const auto& [name, v] : medians)
+      if (name == k) return v;
+    return NAN;
+  }
+};
+
+// ---- formatting ----------------------------------------------------------------------------
+
+std::string ms(double seconds) {
+  if (!std::isfinite(seconds)) return "-";
+  std::ostringstream s;
+  const double m = seconds * 1e3;
+  s << std::fixed << std::setprecision(m < 10 ? 2 : m < 100 ? 1 : 0) << m;
+  return s.str();
+}
+
+std::string num(double v, int precision) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(precision) << v;
+  return s.str();
+}
+
+/// A plain-text table that is also a Markdown table.
+class Table {
+ public:
+  explicit Table(std::vector<std::string> header) { rows_.push_back(std::move(header)); }
+  void add(std::vector<std::string> row) { rows_.push_back(std::move(row)); }
+  void print(std::ostream& out) const {
+    std::vector<size_t> width(rows_[0].size(), 0);
+    for (const auto& r : rows_)
+      for (size_t i = 0; i < r.size(); ++i) width[i] = std::max(width[i], r[i].size());
+    auto line = [&](const std::vector<std::string>& r) {
+      out << "|";
+      for (size_t i = 0; i < r.size(); ++i)
+        out << " " << (i == 0 ? std::left : std::right) << std::setw(int(width[i])) << r[i] << " |";
+      out << std::right << "\n";
+    };
+    line(rows_[0]);
+    out << "|";
+    for (size_t i = 0; i < width.size(); ++i)
+      out << (i == 0 ? ":" : "") << std::string(width[i] + (i == 0 ? 1 : 1), '-')
+          << (i == 0 ? "" : ":") << "|";
+    out << "\n";
+    for (size_t r = 1; r < rows_.size(); ++r) line(rows_[r]);
+    out << "\n";
+  }
+
+ private:
+  std::vector<std::vector<std::string>> rows_;
+};
+
+std::string caseLabel(const Result& r) { return r.c->name; }
+
+void printWeights(const std::vector<Result>& results, std::ostream& out) {
+  Table t({"case", "V", "elements", "symbolic", "numeric", "factor", "solve", "refactor", "resolve",
+           "paper factor", "paper solve", "paper/ours factor", "paper/ours solve"});
+  bool any = false;
+  for (const Result& r : results) {
+    if (r.c->group != "weights" || r.medians.empty()) continue;
+    any = true;
+    const double pf = r.c->paper.at("factor"), ps = r.c->paper.at("resolve");
+    t.add({caseLabel(r), std::to_string(r.prepared.vertices), std::to_string(r.prepared.elements),
+           ms(r.get("symbolic")), ms(r.get("numeric")), ms(r.get("factor")), ms(r.get("solve")),
+           ms(r.get("refactor")), ms(r.get("resolve")), ms(pf), ms(ps),
+           num(pf / r.get("factor"), 1), num(ps / r.get("resolve"), 1)});
+  }
+  if (!any) return;
+  out << "Weights (ms). factor = everything the first solve does before its solve phase "
+         "(partition, assembly incl. K N^-1 K, symbolic, numeric); solve = its solve phase; "
+         "refactor = whole solve() after a new t (numeric only); resolve = whole solve() after a "
+         "new magnitude (right-hand side only). Paper: car 984 V, rocker arm 3,696 V / 13,088 "
+         "tets, chair 21,342 V / 92,500 tets (§4).\n\n";
+  t.print(out);
+}
+
+void printDeformation(const std::vector<Result>& results, std::ostream& out) {
+  Table t({"case", "V", "elements", "setup", "symbolic", "factor", "iteration", "global", "local",
+           "move 1 it", "move 5 it"});
+  bool any = false;
+  for (const Result& r : results) {
+    if (r.c->group != "deform" || r.medians.empty()) continue;
+    any = true;
+    t.add({caseLabel(r), std::to_string(r.prepared.vertices), std::to_string(r.prepared.elements),
+           ms(r.get("setup")), ms(r.get("symbolic")), ms(r.get("factor")), ms(r.get("iteration")),
+           ms(r.get("global")), ms(r.get("local")), ms(r.get("move1")), ms(r.get("move5"))});
+  }
+  if (!any) return;
+  out << "Deformation, ARAP with nonuniform regularization from diffused weights (ms). setup = "
+         "session + handles (assembly); factor = numeric factorization of the regularized "
+         "system; iteration = one local + global step (from the 5- and 1-iteration moves); global "
+         "= its solve phase (3 coordinates against one factor); move = setTargets + solve.\n\n";
+  t.print(out);
+
+  Table f({"series", "points", "n range", "factor", "iteration", "move 1 it"});
+  bool anyFit = false;
+  for (const char* series : {"planar", "surface", "tet"}) {
+    std::vector<double> n, fa, it, mv;
+    for (const Result& r : results)
+      if (r.c->group == "deform" && r.c->series == series && !r.medians.empty()) {
+        n.push_back(r.prepared.vertices);
+        fa.push_back(r.get("factor"));
+        it.push_back(r.get("iteration"));
+        mv.push_back(r.get("move1"));
+      }
+    if (n.size() < 2) continue;
+    anyFit = true;
+    f.add({series, std::to_string(n.size()),
+           std::to_string(int(n.front())) + "-" + std::to_string(int(n.back())),
+           num(fitExponent(n, fa), 2), num(fitExponent(n, it), 2), num(fitExponent(n, mv), 2)});
+  }
+  if (anyFit) {
+    out << "Growth: exponent p of time ~ n^p (least squares on log-log).\n\n";
+    f.print(out);
+  }
+}
+
+void printPeer(const std::vector<Result>& results, std::ostream& out) {
+  Table t({"case", "V", "ours preprocess", "CGAL preprocess", "ours/CGAL", "ours iteration",
+           "CGAL iteration", "ours/CGAL", "ours move 1 it", "CGAL move 1 it"});
+  bool any = false;
+  for (const Result& r : results) {
+    if (r.c->group != "peer" || r.medians.empty()) continue;
+    any = true;
+    t.add({caseLabel(r), std::to_string(r.prepared.vertices), ms(r.get("ours_preprocess")),
+           ms(r.get("cgal_preprocess")),
+           num(r.get("ours_preprocess") / r.get("cgal_preprocess"), 3), ms(r.get("ours_iteration")),
+           ms(r.get("cgal_iteration")), num(r.get("ours_iteration") / r.get("cgal_iteration"), 3),
+           ms(r.get("ours_move1")), ms(r.get("cgal_move1"))});
+  }
+  if (!any) return;
+  Table b({"case", "discretization", "session + handles", "symbolic", "numeric"});
+  for (const Result& r : results)
+    if (r.c->group == "peer" && !r.medians.empty())
+      b.add({caseLabel(r), ms(r.get("ours_discretization")), ms(r.get("ours_session")),
+             ms(r.get("ours_symbolic")), ms(r.get("ours_numeric"))});
+  out << "Peer: plain ARAP (no regularization) vs CGAL, same mesh, control vertices (whole mesh "
+         "as ROI), targets and iteration counts (ms). Preprocess: ours = discretization + "
+         "session + first factorization; CGAL = construction (cotangent weights) + ROI + "
+         "control vertices + preprocess(). Iteration from deform(6) - deform(1). CGAL's ARAP is "
+         "per-vertex spokes-and-rims, ours per-element; both solve 3 coordinates per "
+         "iteration.\n\n";
+  t.print(out);
+  out << "Our preprocess in parts (ms):\n\n";
+  b.print(out);
+}
+
+void printMemory(const std::vector<Result>& results, std::ostream& out) {
+  const std::vector<std::string> stages{"start",   "mesh",    "discretization",
+                                        "weights", "session", "solve"};
+  std::vector<std::string> header{"case", "V", "peak RSS (MiB)", "ru_maxrss (MiB)", "wall (s)"};
+  for (const std::string& s : stages) header.push_back("after " + s);
+  Table t(header);
+  bool any = false;
+  for (const Result& r : results) {
+    if (r.c->group != "memory" || r.medians.empty()) continue;
+    any = true;
+    std::vector<std::string> row{caseLabel(r), std::to_string(r.prepared.vertices),
+                                 num(r.get("peak_rss_mib"), 1), num(r.get("ru_maxrss_mib"), 1),
+                                 num(r.get("wall"), 2)};
+    for (const std::string& s : stages) row.push_back(num(r.get("after_" + s + "_mib"), 1));
+    t.add(row);
+  }
+  if (!any) return;
+  out << "Memory: a surface session (mesh, discretization, eq. 8 weights, nonuniform ARAP, one "
+         "5-iteration handle move) in a child process (fork + exec, run first). peak RSS = the "
+         "child's VmHWM at its end; \"after X\" = its VmHWM once stage X is done; ru_maxrss = "
+         "getrusage(RUSAGE_CHILDREN), which also counts the parent's pages at fork.\n\n";
+  t.print(out);
+}
+
+// ---- targets -------------------------------------------------------------------------------
+
+struct Target {
+  std::string what, caseName, metric;
+  double limit;
+  bool atLeast = false;  // true: measured must be >= limit (speed-ups)
+  std::string unit = "ms";
+};
+
+nlohmann::json evaluateTargets(const std::vector<Result>& results, std::ostream& out) {
+  auto find = [&](const std::string& name) -> const Result* {
+    for (const Result& r : results)
+      if (r.c->name == name && !r.medians.empty()) return &r;
+    return nullptr;
+  };
+  std::vector<Target> targets;
+  for (const char* mesh : {"tet-21k", "tet-monkey"}) {
+    targets.push_back(
+        {"eq. 8 factorization < 0.5 s", std::string("weights/eq8/") + mesh, "factor", 0.5});
+    targets.push_back(
+        {"eq. 7 factorization < 0.2 s", std::string("weights/eq7/") + mesh, "factor", 0.2});
+    for (const char* eq : {"eq7", "eq8"})
+      targets.push_back(
+          {"weights solve < 20 ms", std::string("weights/") + eq + "/" + mesh, "resolve", 0.02});
+  }
+  targets.push_back(
+      {"eq. 8 factorization < 2 ms (1K surface)", "weights/eq8/sphere-1k", "factor", 0.002});
+  targets.push_back(
+      {"handle move, 1 iteration < 5 ms (10K surface)", "deform/surface/10k", "move1", 0.005});
+  targets.push_back(
+      {"handle move, 1 iteration < 50 ms (100K surface)", "deform/surface/100k", "move1", 0.05});
+  for (const char* size : {"10k", "100k"}) {
+    targets.push_back({"3x faster than CGAL per iteration", std::string("peer/sphere-") + size,
+                       "speedup_iteration", 3.0, true, "x"});
+    targets.push_back({"3x faster than CGAL in preprocessing", std::string("peer/sphere-") + size,
+                       "speedup_preprocess", 3.0, true, "x"});
+  }
+  targets.push_back({"peak memory < 500 MB (100K surface session)", "memory/sphere-100k",
+                     "peak_rss_mb", 500.0, false, "MB"});
+
+  Table t({"target", "case", "measured", "limit", "met"});
+  nlohmann::json json = nlohmann::json::array();
+  for (const Target& g : targets) {
+    const Result* r = find(g.caseName);
+    if (!r) continue;
+    double value = NAN;
+    if (g.metric == "speedup_iteration")
+      value = r->get("cgal_iteration") / r->get("ours_iteration");
+    else if (g.metric == "speedup_preprocess")
+      value = r->get("cgal_preprocess") / r->get("ours_preprocess");
+    else if (g.metric == "peak_rss_mb")
+      value = r->get("peak_rss_mib") * 1024.0 * 1024.0 / 1e6;
+    else
+      value = r->get(g.metric);
+    const bool met = g.atLeast ? value >= g.limit : value < g.limit;
+    const bool seconds = g.unit == "ms";
+    t.add({g.what, g.caseName, seconds ? ms(value) + " ms" : num(value, 1) + " " + g.unit,
+           seconds ? ms(g.limit) + " ms" : num(g.limit, 1) + " " + g.unit, met ? "yes" : "NO"});
+    json.push_back({{"target", g.what},
+                    {"case", g.caseName},
+                    {"metric", g.metric},
+                    {"measured", value},
+                    {"limit", g.limit},
+                    {"unit", seconds ? "s" : g.unit},
+                    {"met", met}});
+  }
+  if (!json.empty()) {
+    out << "Targets of issue 5.\n\n";
+    t.print(out);
+  }
+  return json;
+}
+
+// ---- the memory probe ------------------------------------------------------------------------
+
+Case memoryCase(int vertices, const std::string& label) {
+  Case c;
+  c.group = "memory";
+  c.name = "memory/sphere-" + label;
+  c.maxRepeats = 1;  // ru_maxrss of the children is a running maximum
+  c.prepare = [vertices] {
+    Prepared p;
+    p.source = "child process: " + std::string(kMemoryFlag) + " " + std::to_string(vertices);
+    return p;
+  };
+  c.run = [vertices] {
+    int pipeFds[2];
+    if (pipe(pipeFds) != 0) throw Error("memory probe: pipe() failed");
+    Timer timer;
+    const pid_t pid = fork();
+    if (pid < 0) throw Error("memory probe: fork() failed");
+    if (pid == 0) {
+      dup2(pipeFds[1], STDOUT_FILENO);
+      close(pipeFds[0]);
+      close(pipeFds[1]);
+      const std::string n = std::to_string(vertices);
+      execl("/proc/self/exe", "diffreg-bench", kMemoryFlag, n.c_str(), static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    close(pipeFds[1]);
+    std::string output;
+    char buffer[256];
+    ssize_t got;
+    while ((got = read(pipeFds[0], buffer, sizeof buffer)) > 0) output.append(buffer, got);
+    close(pipeFds[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    const double wall = timer.seconds();
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+      throw Error("memory probe: the child process failed");
+    rusage usage{};
+    getrusage(RUSAGE_CHILDREN, &usage);
+    // The child reports "stage NAME KIB" (its peak so far) after each stage, then its size.
+    Sample sample{{"ru_maxrss_mib", usage.ru_maxrss / 1024.0}, {"wall", wall}};
+    std::istringstream lines(output);
+    std::string word, stage;
+    while (lines >> word) {
+      double value = 0.0;
+      if (word == "stage" && lines >> stage >> value) {
+        sample.emplace_back("after_" + stage + "_mib", value / 1024.0);
+        if (stage == "solve") sample.emplace_back("peak_rss_mib", value / 1024.0);
+      } else if (word == "vertices" && lines >> value)
+        sample.emplace_back("vertices", value);
+    }
+    return sample;
+  };
+  return c;
+}
+
+// ---- running -------------------------------------------------------------------------------
+
+Result runCase(const Case& c, const Options& options) {
+  Result r;
+  r.c = &c;
+  std::cerr << "diffreg-bench: " << c.name << " ..." << std::flush;
+  try {
+    r.prepared = c.prepare();
+    if (!r.prepared.available) {
+      std::cerr << " skipped (" << r.prepared.skipReason << ")\n";
+      r.error = "skipped: " + r.prepared.skipReason;
+      return r;
+    }
+    r.repeats = c.maxRepeats > 0 ? std::min(options.repeats, c.maxRepeats) : options.repeats;
+    std::vector<Sample> samples;
+    Timer timer;
+    for (int i = 0; i < r.repeats; ++i) samples.push_back(c.run());
+    r.seconds = timer.seconds();
+    for (size_t k = 0; k < samples[0].size(); ++k) {
+      std::vector<double> values;
+      for (const Sample& s : samples) values.push_back(s[k].second);
+      r.medians.emplace_back(samples[0][k].first, median(values));
+    }
+    if (c.group == "memory") r.prepared.vertices = static_cast<int>(r.get("vertices"));
+    std::cerr << " " << r.prepared.vertices << " V, " << r.repeats << " repeats, "
+              << num(r.seconds, 1) << " s\n";
+  } catch (const std::exception& e) {
+    r.error = e.what();
+    r.medians.clear();
+    std::cerr << " failed: " << e.what() << "\n";
+  }
+  if (c.release) c.release();
+  return r;
+}
+
+nlohmann::json toJson(const Result& r) {
+  nlohmann::json j;
+  j["name"] = r.c->name;
+  j["group"] = r.c->group;
+  if (!r.c->series.empty()) j["series"] = r.c->series;
+  j["source"] = r.prepared.source;
+  j["vertices"] = r.prepared.vertices;
+  j["elements"] = r.prepared.elements;
+  j["repeats"] = r.repeats;
+  j["seconds"] = r.seconds;
+  nlohmann::json medians = nlohmann::json::object();
+  for (const auto& [k, v] : r.medians) medians[k] = v;
+  j["median"] = medians;
+  if (!r.c->paper.empty()) j["paper"] = r.c->paper;
+  if (!r.prepared.facts.empty()) j["facts"] = r.prepared.facts;
+  if (!r.error.empty()) j["error"] = r.error;
+  return j;
+}
+
+int run(const Options& options) {
+  Timer total;
+  Sizes sizes;
+  sizes.quick = options.quick;
+  // The memory probe runs first, while this process is small (see printMemory).
+  std::vector<Case> cases;
+  cases.push_back(options.quick ? memoryCase(10000, "10k") : memoryCase(100000, "100k"));
+  addWeightCases(cases, sizes);
+  addDeformationCases(cases, sizes);
+  addPeerCases(cases, sizes);
+
+  std::vector<Result> results;
+  for (const Case& c : cases)
+    if (c.name.find(options.filter) != std::string::npos) results.push_back(runCase(c, options));
+  if (results.empty()) {
+    std::cerr << "diffreg-bench: no case matches '" << options.filter << "'\n";
+    return 2;
+  }
+
+  const nlohmann::json machine = machineFacts();
+  std::ostream& out = std::cout;
+  out << "diffreg-bench " << (options.quick ? "(quick) " : "") << "- median of up to "
+      << options.repeats << " repeats\n\n";
+  out << "Machine: " << machine["cpu"].get<std::string>() << ", " << machine["nproc"].get<int>()
+      << " cores, " << machine["memory_total"].get<std::string>() << "; "
+      << machine["date"].get<std::string>() << "\n"
+      << "Solver: " << machine["solver"].get<std::string>()
+      << "; BLAS: " << machine["blas_mapped"].get<std::string>() << "\n"
+      << "Peer: " << machine["peer"].get<std::string>() << "\n\n";
+  printWeights(results, out);
+  printDeformation(results, out);
+  printPeer(results, out);
+  printMemory(results, out);
+  const nlohmann::json targets = evaluateTargets(results, out);
+  int failed = 0;
+  for (const Result& r : results) {
+    if (r.error.empty()) continue;
+    const bool skipped = r.error.rfind("skipped", 0) == 0;
+    out << (skipped ? "Skipped " : "FAILED ") << r.c->name << ": " << r.error << "\n";
+    failed += skipped ? 0 : 1;
+  }
+  out << "Total bench time " << num(total.seconds(), 1) << " s\n";
+
+  if (!options.json.empty()) {
+    nlohmann::json j;
+    j["machine"] = machine;
+    j["options"] = {
+        {"repeats", options.repeats}, {"quick", options.quick}, {"filter", options.filter}};
+    j["cases"] = nlohmann::json::array();
+    for (const Result& r : results) j["cases"].push_back(toJson(r));
+    j["targets"] = targets;
+    j["total_seconds"] = total.seconds();
+    std::ofstream file(options.json);
+    file << j.dump(2) << "\n";
+    if (!file) throw IoError("cannot write '" + options.json + "'");
+  }
+  return failed ? 1 : 0;
+}
+
+}  // namespace
+}  // namespace diffreg::bench
+
+int main(int argc, char** argv) {
+  using namespace diffreg::bench;
+  Options options;
+  bool repeatsGiven = false;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string arg = argv[i];
+      auto value = [&]() -> std::string {
+        if (i + 1 >= argc) throw diffreg::InvalidParameter("option " + arg + " needs a value");
+        return argv[++i];
+      };
+      if (arg == "--help" || arg == "-h") {
+        printUsage(std::cout);
+        return 0;
+      } else if (arg == kMemoryFlag) {
+        diffreg::setQuiet(true);
+        runMemorySession(std::stoi(value()));
+        return 0;
+      } else if (arg == "--quick") {
+        options.quick = true;
+      } else if (arg == "--repeats") {
+        const std::string v = value();
+        char* end = nullptr;
+        const long n = std::strtol(v.c_str(), &end, 10);
+        if (*end || n < 1 || n > 1000)
+          throw diffreg::InvalidParameter("--repeats must be an integer in [1, 1000], got '" + v +
+                                          "'");
+        options.repeats = static_cast<int>(n);
+        repeatsGiven = true;
+      } else if (arg == "--filter") {
+        options.filter = value();
+      } else if (arg == "--meshes") {
+        setSharedMeshDirectory(value());
+      } else if (arg == "--json") {
+        options.json = value();
+      } else {
+        throw diffreg::InvalidParameter("unknown option '" + arg + "' (see --help)");
+      }
+    }
+    if (options.quick && !repeatsGiven) options.repeats = 3;
+    diffreg::setQuiet(true);
+    return run(options);
+  } catch (const std::exception& e) {
+    std::cerr << "diffreg-bench: " << e.what() << "\n";
+    return 2;
+  }
+}
