@@ -92,7 +92,7 @@ TEST_CASE("bar-bend: left column fixed, middle point fixed, tip point raised by 
     return q + Eigen::Vector3d(0, 2, 0);
   });
   CHECK(tip.range == 2.0);
-  CHECK(tip.magnitude == 1.0);
+  CHECK(tip.magnitude == 0.5);
 }
 
 TEST_CASE("ushape-pull: bottom edge fixed, right arm tip pulled outward", "[scenarios]") {

@@ -7,6 +7,8 @@
 // happens before any work; output files appear only when everything succeeded. Errors print
 // one line "diffreg: error: ..." on stderr; the exit code is 2 for usage errors, else 1.
 
+#include "cli.h"
+#include "compare.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "mesh/io.h"
@@ -37,15 +39,12 @@ namespace fs = std::filesystem;
 namespace diffreg {
 namespace {
 
-/// A mistake in the command line itself (exit code 2).
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 const char* kUsage =
     "Usage: diffreg -i IN [--handles H.json] [--filter 'NAME key=value ...']... -o OUT\n"
     "               [--report R.json] [--quiet]\n"
     "       diffreg filters      list every filter with its parameters\n"
+    "       diffreg compare ...  none / uniform / non-uniform regularization side by side\n"
     "       diffreg --help | --version\n"
     "\n"
     "Applies the filters in the order given to the mesh IN and writes OUT; the extension of\n"
@@ -66,12 +65,6 @@ std::string wrap(const std::string& text, const std::string& indent, size_t widt
     line += (line.empty() ? "" : " ") + word;
   }
   if (!line.empty()) out += indent + line + "\n";
-  return out;
-}
-
-std::string join(const std::vector<std::string>& items, const char* separator) {
-  std::string out;
-  for (size_t i = 0; i < items.size(); ++i) out += (i ? separator : "") + items[i];
   return out;
 }
 
@@ -102,46 +95,6 @@ std::string describeFilters(const Registry& registry) {
   }
   return out;
 }
-
-/// Throws IoError unless the directory that would hold `path` exists.
-void checkWritableDir(const std::string& path) {
-  fs::path dir = fs::path(path).parent_path();
-  if (dir.empty()) dir = ".";
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec))
-    throw IoError("cannot write '" + path + "': directory '" + dir.string() + "' does not exist");
-}
-
-/// A temporary name beside `path` with the same extension (writeMesh picks the format by it).
-std::string temporaryName(const std::string& path) {
-  const fs::path p(path);
-  return (p.parent_path() / ("." + p.stem().string() + ".tmp" + std::to_string(::getpid()) +
-                             p.extension().string()))
-      .string();
-}
-
-/// Files written under temporary names, renamed into place together by commit(); whatever was
-/// not committed is removed, so a failed run leaves no new or clobbered file.
-class StagedOutputs {
- public:
-  ~StagedOutputs() {
-    for (const auto& [tmp, path] : staged_) std::remove(tmp.c_str());
-  }
-  /// Returns the temporary name to write `path` to.
-  std::string stage(const std::string& path) {
-    staged_.emplace_back(temporaryName(path), path);
-    return staged_.back().first;
-  }
-  void commit() {
-    for (const auto& [tmp, path] : staged_)
-      if (std::rename(tmp.c_str(), path.c_str()) != 0)
-        throw IoError("cannot write '" + path + "': " + std::strerror(errno));
-    staged_.clear();
-  }
-
- private:
-  std::vector<std::pair<std::string, std::string>> staged_;
-};
 
 int runPipeline(const po::variables_map& vm) {
   if (!vm.count("input")) throw UsageError("missing -i IN (see diffreg --help)");
@@ -174,19 +127,14 @@ int runPipeline(const po::variables_map& vm) {
 
   StagedOutputs staged;
   for (const auto& output : outputs) writeMesh(staged.stage(output), doc.mesh);
-  if (!reportPath.empty()) {
-    const std::string tmp = staged.stage(reportPath);
-    std::ofstream out(tmp, std::ios::binary);
-    out << report.dump(2) << "\n";
-    out.close();
-    if (!out) throw IoError("cannot write '" + reportPath + "'");
-  }
+  if (!reportPath.empty()) staged.stageText(reportPath, report.dump(2) + "\n");
   staged.commit();
   info("wrote " + join(outputs, ", ") + (reportPath.empty() ? "" : " and " + reportPath));
   return 0;
 }
 
 int run(int argc, char** argv) {
+  if (argc > 1 && std::string(argv[1]) == "compare") return runCompare(argc - 1, argv + 1);
   po::options_description visible("Options");
   visible.add_options()                                                                        //
       ("help,h", "show this help and the filter names")                                        //

@@ -1,0 +1,116 @@
+// diffreg compare: the paper's comparison on a shipped scenario, its outputs and its errors.
+#include "render/image.h"
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+using namespace diffreg;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string shipped(const std::string& name) {
+  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
+}
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct Scratch {
+  fs::path dir =
+      fs::temp_directory_path() / ("diffreg-cli-compare-" + std::to_string(::getpid()));
+  Scratch() {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~Scratch() { fs::remove_all(dir); }
+  int run(const std::string& args, std::string* out, std::string* err) const {
+    const std::string command = "cd '" + dir.string() + "' && '" + DIFFREG_TOOL + "' compare " +
+                                args + " > stdout.txt 2> stderr.txt";
+    const int status = std::system(command.c_str());
+    *out = slurp(dir / "stdout.txt");
+    *err = slurp(dir / "stderr.txt");
+    fs::remove(dir / "stdout.txt");
+    fs::remove(dir / "stderr.txt");
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  int files() const {
+    return static_cast<int>(std::distance(fs::directory_iterator(dir), fs::directory_iterator()));
+  }
+};
+
+}  // namespace
+
+TEST_CASE("diffreg compare: table, report and picture of none / uniform / non-uniform",
+          "[cli][compare]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s;
+  std::string out, err;
+  const int code = s.run("-i '" + shipped("bar.obj") + "' --handles '" + shipped("bar-bend.json") +
+                             "' -o c.png --report c.json --markdown c.md --size 300x200 -q",
+                         &out, &err);
+  INFO(err);
+  REQUIRE(code == 0);
+  CHECK(err.empty());
+  CHECK(slurp(s.dir / "c.md") == out);
+  CHECK(std::count(out.begin(), out.end(), '\n') == 5);  // header, rule, three variants
+  for (const char* row : {"| none |", "| uniform |", "| nonuniform |"})
+    CHECK(out.find(row) != std::string::npos);
+
+  const auto report = nlohmann::json::parse(slurp(s.dir / "c.json"));
+  REQUIRE(report["variants"].size() == 3);
+  const auto& none = report["variants"][0]["metrics"];
+  const auto& uniform = report["variants"][1]["metrics"];
+  const auto& nonuniform = report["variants"][2]["metrics"];
+  // Uniform beta defaults to the peak of the weights (the scenario's magnitudes, 0.5).
+  CHECK(report["beta"].get<double>() == Approx(0.5));
+  CHECK(report["peak_weight"].get<double>() == Approx(0.5));
+  CHECK(none["dist"].get<double>() == 0.0);
+  CHECK(uniform["D_max"].get<double>() < none["D_max"].get<double>());
+  CHECK(nonuniform["D_max"].get<double>() < none["D_max"].get<double>());
+  CHECK(nonuniform["D_ave"].get<double>() < uniform["D_ave"].get<double>());
+  CHECK(nonuniform["dist"].get<double>() < uniform["dist"].get<double>());
+
+  // Four panels of 300 x 200 in a 2 x 2 grid with 10-pixel spacing.
+  const Image picture = readPng((s.dir / "c.png").string());
+  CHECK(picture.width == 2 * 300 + 3 * 10);
+  CHECK(picture.height == 2 * 200 + 3 * 10);
+}
+
+TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",
+          "[cli][compare]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s;
+  const std::string in = "-i '" + shipped("bar.obj") + "' ";
+  const std::string h = "--handles '" + shipped("bar-bend.json") + "' ";
+  const std::pair<std::string, std::string> cases[] = {
+      {in + "-o c.png", "--handles"},
+      {in + h + "-o c.png --deform 'deform regularization=none'", "regularization"},
+      {in + h + "-o c.png --deform 'measure'", "deform"},
+      {in + h + "-o c.png --weights 'nothing t=1'", "nothing"},
+      {in + h + "-o c.png --size 20x20", "--size"},
+  };
+  for (const auto& [args, needle] : cases) {
+    INFO(args);
+    std::string out, err;
+    CHECK(s.run(args, &out, &err) == 2);
+    INFO(err);
+    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+    CHECK(err.find(needle) != std::string::npos);
+    CHECK(s.files() == 0);
+  }
+}

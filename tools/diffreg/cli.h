@@ -1,0 +1,42 @@
+// What the diffreg commands share: usage errors, output checks and outputs that appear together
+// or not at all.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace diffreg {
+
+/// A mistake in the command line itself (exit code 2).
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+std::string join(const std::vector<std::string>& items, const char* separator);
+
+/// \throw IoError unless the directory that would hold `path` exists.
+void checkWritableDir(const std::string& path);
+
+/// Files written under temporary names beside their targets (same extension, so writers that
+/// pick a format by it still do), renamed into place together by commit(). Whatever was not
+/// committed is removed, so a failed run leaves no new or clobbered file.
+class StagedOutputs {
+ public:
+  StagedOutputs() = default;
+  StagedOutputs(const StagedOutputs&) = delete;
+  StagedOutputs& operator=(const StagedOutputs&) = delete;
+  ~StagedOutputs();
+  /// Returns the temporary name to write `path` to.
+  std::string stage(const std::string& path);
+  /// Writes `text` to `path`'s temporary. \throw IoError when writing fails.
+  void stageText(const std::string& path, const std::string& text);
+  /// \throw IoError when a rename fails.
+  void commit();
+
+ private:
+  std::vector<std::pair<std::string, std::string>> staged_;  // temporary, target
+};
+
+}  // namespace diffreg

@@ -1,0 +1,271 @@
+#include "compare.h"
+
+#include "cli.h"
+#include "core/error.h"
+#include "core/log.h"
+#include "pipeline/pipeline.h"
+#include "render/render.h"
+
+#include <boost/program_options.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace po = boost::program_options;
+
+namespace diffreg {
+namespace {
+
+const char* kCompareUsage =
+    "Usage: diffreg compare -i MESH --handles H.json [-o PICTURE.png] [--report R.json]\n"
+    "                       [--markdown T.md] [--weights 'FILTER k=v ...'] [--deform 'deform k=v "
+    "...']\n"
+    "                       [--beta B] [--rbf ['rbf_weights k=v ...']] [--size WxH] [--quiet]\n"
+    "\n"
+    "The same edit without regularization, with uniform regularization and with non-uniform\n"
+    "regularization by the diffused weights (and by RBF weights with --rbf), as in the paper's\n"
+    "Fig. 6/7 and Table 1. Prints the metrics as a Markdown table; -o draws the rest shape with\n"
+    "its weights and every result coloured by distortion on one shared scale. The uniform beta\n"
+    "defaults to the peak of the weights, so that both regularizations have the same peak.\n";
+
+/// One column of the comparison.
+struct Variant {
+  std::string name;            ///< none, uniform, nonuniform, rbf
+  std::string title;           ///< panel title
+  std::vector<Step> weights;   ///< the weights step, if any
+  std::string regularization;  ///< deform's regularization
+  double beta = 0.0;           ///< uniform only
+  Document result;
+  nlohmann::json report;
+};
+
+Step parseStep(const std::string& spec, const std::string& option) {
+  const auto [name, values] = parseFilterSpec(spec);
+  if (!Registry::builtin().has(name))
+    throw UsageError(option + ": unknown filter '" + name + "' (known: " +
+                     join(Registry::builtin().names(), ", ") + ")");
+  return Step{name, values};
+}
+
+std::string fixed(double value, int digits) {
+  if (!std::isfinite(value)) return "-";
+  std::ostringstream out;
+  const double magnitude = std::abs(value);
+  if (value != 0.0 && (magnitude < 1e-3 || magnitude >= 1e5)) {
+    out.precision(digits - 1);
+    out << std::scientific << value;
+  } else {
+    out.precision(digits);
+    out << std::fixed << value;
+  }
+  return out.str();
+}
+
+std::string markdownTable(const std::vector<Variant>& variants) {
+  std::ostringstream md;
+  md << "| regularization | beta | D_max | D_ave | D_dev | Dist | inverted | energy | iterations "
+        "|\n";
+  md << "|:--|--:|--:|--:|--:|--:|--:|--:|--:|\n";
+  for (const Variant& v : variants) {
+    const auto& deform = v.report["filters"][v.weights.size()];
+    const auto& m = v.report["filters"][v.weights.size() + 1]["metrics"];
+    const std::string beta = v.name == "none"      ? "0"
+                             : v.name == "uniform" ? fixed(v.beta, 3)
+                                                   : "weights";
+    md << "| " << v.name << " | " << beta << " | " << fixed(m["D_max"].get<double>(), 4) << " | "
+       << fixed(m["D_ave"].get<double>(), 4) << " | " << fixed(m["D_dev"].get<double>(), 4)
+       << " | " << fixed(m["dist"].get<double>(), 4) << " | " << m["inverted"].get<int>() << " | "
+       << fixed(m["energy"].get<double>(), 4) << " | " << deform["iterations"].get<int>() << " |\n";
+  }
+  return md.str();
+}
+
+/// Rest shape with the weights and handles, then every variant by distortion on one scale.
+Image comparePicture(const Document& rest, const Document& weighted,
+                     const std::vector<Variant>& variants, int width, int height) {
+  Eigen::AlignedBox3d frame = meshBounds(rest.mesh);
+  double top = 0.0;
+  for (const Variant& v : variants) {
+    frame.extend(meshBounds(v.result.mesh));
+    top = std::max(top, v.result.mesh.elementScalar(prop::distortion).maxCoeff());
+  }
+  RenderOptions base;
+  base.width = width;
+  base.height = height;
+  base.frame = frame;
+  base.handles = rest.handles.allVertices();
+  base.reserveColorBar = true;
+  if (rest.mesh.kind() != MeshKind::Planar) {
+    // The handles' motion shows best in the picture plane: the vertical is the axis along which
+    // the handles move most (the longest axis of the shape when they do not move).
+    Eigen::Vector3d motion = Eigen::Vector3d::Zero();
+    for (const Handle& h : rest.handles.handles)
+      for (int i = 0; i < h.targets.rows(); ++i)
+        motion += (h.targets.row(i) - rest.rest.row(h.vertices[i])).cwiseAbs().transpose();
+    Eigen::Vector3d::Index axis;
+    if (motion.maxCoeff() > 1e-12 * frame.diagonal().norm())
+      motion.maxCoeff(&axis);
+    else
+      frame.sizes().maxCoeff(&axis);
+    base.upAxis = static_cast<int>(axis);
+  }
+
+  std::vector<Image> panels;
+  RenderOptions weights = base;
+  weights.property = prop::weight;
+  weights.rangeMin = 0.0;
+  weights.colormap = Colormap::Viridis;
+  weights.title = "rest shape, weights";
+  weights.colorBarLabel = "weight";
+  panels.push_back(renderMesh(weighted.mesh, weights));
+  for (const Variant& v : variants) {
+    RenderOptions o = base;
+    o.property = prop::distortion;
+    o.site = ScalarSite::Element;
+    o.rangeMin = 0.0;
+    o.rangeMax = top;
+    o.colormap = Colormap::Turbo;
+    o.colorBarLabel = "distortion";
+    o.title = v.title;
+    panels.push_back(renderMesh(v.result.mesh, o));
+  }
+  return composeGrid(panels, panels.size() <= 4 ? 2 : 3);
+}
+
+}  // namespace
+
+int runCompare(int argc, char** argv) {
+  po::options_description visible("Options");
+  visible.add_options()                                                                //
+      ("help,h", "show this help")                                                     //
+      ("input,i", po::value<std::string>(), "mesh (obj, off, ply, om, mesh, node/ele)")  //
+      ("handles", po::value<std::string>(), "handle file (JSON)")                      //
+      ("output,o", po::value<std::string>(), "picture (PNG)")                          //
+      ("report,r", po::value<std::string>(), "JSON report with every variant's filters")  //
+      ("markdown,m", po::value<std::string>(), "the Markdown table, also printed on stdout")  //
+      ("weights", po::value<std::string>()->default_value("diffuse_weights"),
+       "the weights filter and its parameters")  //
+      ("deform", po::value<std::string>()->default_value("deform energy=arap"),
+       "the deform filter's parameters (regularization and beta are set per variant)")  //
+      ("beta", po::value<double>(), "uniform beta (default: the peak of the weights)")  //
+      ("rbf", po::value<std::string>()->implicit_value("rbf_weights"),
+       "add non-uniform regularization by RBF weights (filter and parameters)")  //
+      ("size", po::value<std::string>()->default_value("560x380"),
+       "size of one panel of the picture, WxH pixels")  //
+      ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
+  po::variables_map vm;
+  po::store(po::command_line_parser(argc, argv).options(visible).run(), vm);
+  po::notify(vm);
+  if (vm.count("help")) {
+    std::cout << kCompareUsage << "\n" << visible;
+    return 0;
+  }
+  if (vm["quiet"].as<bool>()) setQuiet(true);
+  if (!vm.count("input")) throw UsageError("compare: missing -i MESH (see diffreg compare --help)");
+  if (!vm.count("handles"))
+    throw UsageError("compare: missing --handles H.json (see diffreg compare --help)");
+  int width = 0, height = 0;
+  {
+    const std::string size = vm["size"].as<std::string>();
+    char x = 0;
+    std::istringstream in(size);
+    if (!(in >> width >> x >> height) || x != 'x' || !in.eof() || width < 100 || height < 100 ||
+        width > 4000 || height > 4000)
+      throw UsageError("compare: --size '" + size + "' is not WxH with 100 <= W, H <= 4000");
+  }
+  const Step weightsStep = parseStep(vm["weights"].as<std::string>(), "--weights");
+  Step deformStep = parseStep(vm["deform"].as<std::string>(), "--deform");
+  if (deformStep.filter != "deform")
+    throw UsageError("compare: --deform must name the deform filter, not '" + deformStep.filter +
+                     "'");
+  for (const char* key : {"regularization", "beta"})
+    if (deformStep.values.count(key))
+      throw UsageError(std::string("compare: --deform must not set '") + key +
+                       "': each variant sets it (use --beta for the uniform one)");
+  std::vector<std::string> outputs;
+  for (const char* key : {"output", "report", "markdown"})
+    if (vm.count(key)) {
+      outputs.push_back(vm[key].as<std::string>());
+      checkWritableDir(outputs.back());
+    }
+
+  const Document doc = Document::load(vm["input"].as<std::string>(), vm["handles"].as<std::string>());
+
+  // The weights once, for the peak and the picture.
+  Document weighted = doc;
+  Pipeline weightsOnly;
+  weightsOnly.add(weightsStep.filter, weightsStep.values);
+  weightsOnly.run(weighted);
+  if (!weighted.mesh.hasVertexScalar(prop::weight))
+    throw UsageError("compare: --weights filter '" + weightsStep.filter + "' produces no " +
+                     prop::weight);
+  const Eigen::VectorXd w = weighted.mesh.vertexScalar(prop::weight);
+  const std::vector<bool> used = doc.mesh.referenced();
+  double peak = 0.0;
+  for (int i = 0; i < w.size(); ++i)
+    if (used[i]) peak = std::max(peak, w[i]);
+  const double beta = vm.count("beta") ? vm["beta"].as<double>() : std::min(peak, 1.0);
+
+  std::vector<Variant> variants(3);
+  variants[0].name = "none";
+  variants[0].title = "no regularization";
+  variants[0].regularization = "none";
+  variants[1].name = "uniform";
+  variants[1].title = "uniform, beta = " + fixed(beta, 2);
+  variants[1].regularization = "uniform";
+  variants[1].beta = beta;
+  variants[2].name = "nonuniform";
+  variants[2].title = "non-uniform (" + weightsStep.filter + ")";
+  variants[2].regularization = "nonuniform";
+  variants[2].weights = {weightsStep};
+  if (vm.count("rbf")) {
+    Variant rbf;
+    rbf.name = "rbf";
+    rbf.weights = {parseStep(vm["rbf"].as<std::string>(), "--rbf")};
+    rbf.title = "non-uniform (" + rbf.weights[0].filter + ")";
+    rbf.regularization = "nonuniform";
+    variants.push_back(rbf);
+  }
+
+  for (Variant& v : variants) {
+    info("compare: " + v.name);
+    Pipeline p;
+    for (const Step& s : v.weights) p.add(s.filter, s.values);
+    auto values = deformStep.values;
+    values["regularization"] = v.regularization;
+    if (v.name == "uniform") values["beta"] = formatNumber(v.beta);
+    p.add("deform", values);
+    p.add("measure");
+    v.result = doc;
+    v.report = p.run(v.result);
+  }
+
+  const std::string table = markdownTable(variants);
+  StagedOutputs staged;
+  if (vm.count("output"))
+    writePng(staged.stage(vm["output"].as<std::string>()),
+             comparePicture(doc, weighted, variants, width, height));
+  if (vm.count("report")) {
+    nlohmann::json report;
+    report["mesh"] = variants[0].report["mesh"];
+    report["beta"] = beta;
+    report["peak_weight"] = peak;
+    for (const Variant& v : variants)
+      report["variants"].push_back({{"name", v.name},
+                                    {"metrics", v.report["filters"][v.weights.size() + 1]["metrics"]},
+                                    {"filters", v.report["filters"]}});
+    staged.stageText(vm["report"].as<std::string>(), report.dump(2) + "\n");
+  }
+  if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
+  staged.commit();
+  std::cout << table;
+  if (!outputs.empty()) info("wrote " + join(outputs, ", "));
+  return 0;
+}
+
+}  // namespace diffreg
