@@ -5,6 +5,8 @@ namespace diffreg {
 void registerBuiltinFilters(Registry& registry) {
   registerWeightsFilters(registry);
   registerDeformFilters(registry);
+  registerRenderFilters(registry);
+  registerMeshFilters(registry);
 }
 
 Registry& Registry::builtin() {

@@ -8,6 +8,8 @@ namespace diffreg {
 
 void registerWeightsFilters(Registry& registry);  // plugins/weights
 void registerDeformFilters(Registry& registry);   // plugins/deform
+void registerRenderFilters(Registry& registry);   // plugins/render
+void registerMeshFilters(Registry& registry);     // plugins/mesh
 void registerBuiltinFilters(Registry& registry);  // all of the above
 
 }  // namespace diffreg

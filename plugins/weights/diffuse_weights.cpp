@@ -3,6 +3,7 @@
 #include "discretization/discretization.h"
 #include "plugins.h"
 #include "weights/diffusion.h"
+#include "weights/rbf_weights.h"
 
 #include <algorithm>
 #include <limits>
@@ -87,6 +88,7 @@ FilterResult DiffuseWeightsFilter::apply(Document& doc, const ParamMap& params) 
 
 void registerWeightsFilters(Registry& registry) {
   registry.add(std::make_unique<DiffuseWeightsFilter>());
+  registry.add(std::make_unique<RbfWeightsFilter>());
 }
 
 }  // namespace diffreg

@@ -1,0 +1,208 @@
+#include "render/render_filter.h"
+
+#include "core/error.h"
+#include "plugins.h"
+#include "render/render.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+
+#include <unistd.h>
+
+namespace diffreg {
+namespace {
+
+/// The mesh property shown for the `property` parameter ("" for none).
+std::string propertyName(const std::string& choice) {
+  if (choice == "weight") return prop::weight;
+  if (choice == "distortion") return prop::distortion;
+  if (choice == "smoothness") return prop::smoothness;
+  return "";
+}
+
+/// The filters that produce `choice`, for error messages.
+const char* producers(const std::string& choice) {
+  return choice == "weight" ? "diffuse_weights or rbf_weights" : "deform or measure";
+}
+
+/// \throw InvalidParameter for an empty or non-PNG name, IoError for a missing or unwritable
+///        directory, before any rendering work.
+void checkOutput(const std::string& file) {
+  if (file.empty())
+    throw InvalidParameter("filter render: parameter 'file' is required (the PNG to write)");
+  std::string ext = std::filesystem::path(file).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".png")
+    throw InvalidParameter("filter render: parameter 'file' = '" + file +
+                           "' must name a .png file");
+  std::filesystem::path dir = std::filesystem::path(file).parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code error;
+  if (!std::filesystem::is_directory(dir, error))
+    throw IoError("filter render: cannot write '" + file + "': directory '" + dir.string() +
+                  "' does not exist");
+  if (::access(dir.c_str(), W_OK) != 0)
+    throw IoError("filter render: cannot write '" + file + "': directory '" + dir.string() +
+                  "' is not writable");
+}
+
+/// The world axis drawn vertically in 3D views for up=auto: the axis along which the handles
+/// move most, or the longest axis of the shape when they do not move (as diffreg compare).
+int autoUpAxis(const Document& doc) {
+  Eigen::Vector3d motion = Eigen::Vector3d::Zero();
+  for (const Handle& h : doc.handles.handles)
+    for (int i = 0; i < h.targets.rows(); ++i)
+      if (h.vertices[i] >= 0 && h.vertices[i] < doc.rest.rows())
+        motion += (h.targets.row(i) - doc.rest.row(h.vertices[i])).cwiseAbs().transpose();
+  const Eigen::AlignedBox3d box = meshBounds(doc.mesh);
+  const double size = box.isEmpty() ? 0.0 : box.diagonal().norm();
+  Eigen::Index axis = 1;
+  if (motion.maxCoeff() > 1e-12 * size)
+    motion.maxCoeff(&axis);
+  else if (!box.isEmpty())
+    box.sizes().maxCoeff(&axis);
+  return static_cast<int>(axis);
+}
+
+}  // namespace
+
+std::string RenderFilter::description() const {
+  return "Writes a PNG picture of the mesh at its current positions, coloured by a property: "
+         "the regularization weights diffreg:weight (viridis), or the per-element distortion "
+         "diffreg:distortion or energy smoothness diffreg:smoothness (turbo, as the paper's "
+         "figures), with a colour bar from 0 to the largest value (or scale_max, to share one "
+         "scale between pictures), an optional wireframe and the handle vertices marked in "
+         "red. Planar meshes are drawn from above; surfaces and the boundary of tet meshes in "
+         "a shaded orthographic 3D view. The mesh is not changed. The file is written under a "
+         "temporary name and renamed into place. Figures as in Zhu, Li, Zhang, Song: "
+         "Diffusion-based non-uniform regularization for variational shape deformation, "
+         "Computer-Aided Design (2016), Fig. 6-10.";
+}
+
+std::vector<ParamSpec> RenderFilter::params() const {
+  std::vector<ParamSpec> specs;
+  auto add = [&](const std::string& name, ParamType type, const std::string& value,
+                 const std::string& help) -> ParamSpec& {
+    ParamSpec spec;
+    spec.name = name;
+    spec.type = type;
+    spec.defaultValue = value;
+    spec.help = help;
+    specs.push_back(spec);
+    return specs.back();
+  };
+  add("file", ParamType::String, "",
+      "The PNG file to write (required), relative to the working directory.");
+  add("property", ParamType::Enum, "weight",
+      "Colour by weight (vertex property diffreg:weight), distortion (diffreg:distortion), "
+      "smoothness (diffreg:smoothness) or none (uniform grey).")
+      .choices = {"weight", "distortion", "smoothness", "none"};
+  {
+    ParamSpec& s = add("scale_max", ParamType::Float, "0",
+                       "Top of the colour scale (the bottom is 0); 0 = the largest value shown. "
+                       "Give several pictures the same value to compare them.");
+    s.min = 0.0;
+    s.max = 1e12;
+  }
+  add("colormap", ParamType::Enum, "auto",
+      "auto (viridis for weights, turbo for distortion and smoothness), viridis, turbo or "
+      "coolwarm.")
+      .choices = {"auto", "viridis", "turbo", "coolwarm"};
+  add("wireframe", ParamType::Bool, "false", "Draw the mesh edges.");
+  add("handles", ParamType::Bool, "true", "Mark the handle vertices with red dots.");
+  {
+    ParamSpec& w = add("width", ParamType::Int, "800", "Picture width in pixels.");
+    w.min = 64;
+    w.max = 8192;
+    ParamSpec& h = add("height", ParamType::Int, "600", "Picture height in pixels.");
+    h.min = 64;
+    h.max = 8192;
+  }
+  add("view", ParamType::Enum, "auto",
+      "auto (top for planar meshes, orbit otherwise), top (the xy plane from +z) or orbit "
+      "(shaded 3D view from yaw and pitch).")
+      .choices = {"auto", "top", "orbit"};
+  {
+    ParamSpec& y =
+        add("yaw", ParamType::Float, "30", "Orbit view: degrees turned about the up axis.");
+    y.min = -360.0;
+    y.max = 360.0;
+    ParamSpec& p = add("pitch", ParamType::Float, "-20",
+                       "Orbit view: degrees of elevation; negative looks down on the mesh.");
+    p.min = -90.0;
+    p.max = 90.0;
+  }
+  add("up", ParamType::Enum, "auto",
+      "Orbit view: the world axis shown vertical; auto = the axis along which the handles move "
+      "most (the longest axis of the shape when they do not move).")
+      .choices = {"auto", "x", "y", "z"};
+  add("title", ParamType::String, "", "Text above the picture (none when empty).");
+  return specs;
+}
+
+std::vector<std::string> RenderFilter::requires(const ParamMap& params) const {
+  const std::string name = propertyName(params.getString("property"));
+  if (name.empty()) return {};
+  return {name};
+}
+
+FilterResult RenderFilter::apply(Document& doc, const ParamMap& params) const {
+  const std::string file = params.getString("file");
+  checkOutput(file);
+  const Mesh& mesh = doc.mesh;  // read only
+
+  const std::string choice = params.getString("property");
+  RenderOptions options;
+  options.property = propertyName(choice);
+  if (!options.property.empty()) {
+    const bool perVertex = choice == "weight";
+    const bool present = perVertex ? mesh.hasVertexScalar(options.property)
+                                   : mesh.hasElementScalar(options.property);
+    if (!present)
+      throw MissingProperty("filter render: property=" + choice + " needs the " +
+                            (perVertex ? "vertex" : "element") + " property '" + options.property +
+                            "', which the mesh does not have (run " + producers(choice) +
+                            " first)");
+    options.site = perVertex ? ScalarSite::Vertex : ScalarSite::Element;
+    options.rangeMin = 0.0;
+    if (params.getFloat("scale_max") > 0.0) options.rangeMax = params.getFloat("scale_max");
+    const std::string map = params.getString("colormap");
+    options.colormap =
+        map == "auto" ? (perVertex ? Colormap::Viridis : Colormap::Turbo) : colormapFromString(map);
+    options.colorBarLabel = choice;
+  }
+  options.width = params.getInt("width");
+  options.height = params.getInt("height");
+  options.wireframe = params.getBool("wireframe");
+  if (params.getBool("handles")) options.handles = doc.handles.allVertices();
+  const std::string view = params.getString("view");
+  options.view = view == "top" ? ViewMode::Top : view == "orbit" ? ViewMode::Orbit : ViewMode::Auto;
+  options.yaw = params.getFloat("yaw");
+  options.pitch = params.getFloat("pitch");
+  const std::string up = params.getString("up");
+  options.upAxis = up == "x" ? 0 : up == "y" ? 1 : up == "z" ? 2 : autoUpAxis(doc);
+  options.title = params.getString("title");
+
+  const Image image = renderMesh(mesh, options);
+  writePng(file, image);
+
+  FilterResult result;
+  result.data = {{"file", file}, {"property", choice}};
+  if (!options.property.empty()) {
+    const Eigen::VectorXd values = options.site == ScalarSite::Vertex
+                                       ? mesh.vertexScalar(options.property)
+                                       : mesh.elementScalar(options.property);
+    double top = 0.0;
+    for (int i = 0; i < values.size(); ++i)
+      if (std::isfinite(values[i])) top = std::max(top, values[i]);
+    result.data["scale_min"] = 0.0;
+    result.data["scale_max"] = options.rangeMax ? *options.rangeMax : top;
+  }
+  return result;
+}
+
+void registerRenderFilters(Registry& registry) { registry.add(std::make_unique<RenderFilter>()); }
+
+}  // namespace diffreg
