@@ -1,70 +1,30 @@
 // diffreg compare: the paper's comparison on a shipped scenario, its outputs and its errors.
+#include "cli_fixture.h"
 #include "render/image.h"
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
-#include <sys/wait.h>
-#include <unistd.h>
 
 using namespace diffreg;
 namespace fs = std::filesystem;
 
-namespace {
-
-std::string shipped(const std::string& name) {
-  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
-}
-
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-struct Scratch {
-  fs::path dir =
-      fs::temp_directory_path() / ("diffreg-cli-compare-" + std::to_string(::getpid()));
-  Scratch() {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~Scratch() { fs::remove_all(dir); }
-  int run(const std::string& args, std::string* out, std::string* err) const {
-    const std::string command = "cd '" + dir.string() + "' && '" + DIFFREG_TOOL + "' compare " +
-                                args + " > stdout.txt 2> stderr.txt";
-    const int status = std::system(command.c_str());
-    *out = slurp(dir / "stdout.txt");
-    *err = slurp(dir / "stderr.txt");
-    fs::remove(dir / "stdout.txt");
-    fs::remove(dir / "stderr.txt");
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
-  int files() const {
-    return static_cast<int>(std::distance(fs::directory_iterator(dir), fs::directory_iterator()));
-  }
-};
-
-}  // namespace
+using namespace diffreg::testing;
 
 TEST_CASE("diffreg compare: table, report and picture of none / uniform / non-uniform",
           "[cli][compare]") {
   if (!fs::exists(DIFFREG_TOOL)) return;
-  Scratch s;
-  std::string out, err;
-  const int code = s.run("-i '" + shipped("bar.obj") + "' --handles '" + shipped("bar-bend.json") +
-                             "' -o c.png --report c.json --markdown c.md --size 300x200 -q",
-                         &out, &err);
+  Scratch s("cli-compare");
+  const ToolRun r = s.run("compare -i '" + shipped("bar.obj") + "' --handles '" +
+                          shipped("bar-bend.json") +
+                          "' -o c.png --report c.json --markdown c.md --size 300x200 -q");
+  const std::string& out = r.out;
+  const std::string& err = r.err;
   INFO(err);
-  REQUIRE(code == 0);
+  REQUIRE(r.code == 0);
   CHECK(err.empty());
   CHECK(slurp(s.dir / "c.md") == out);
   CHECK(std::count(out.begin(), out.end(), '\n') == 5);  // header, rule, three variants
@@ -94,7 +54,7 @@ TEST_CASE("diffreg compare: table, report and picture of none / uniform / non-un
 TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",
           "[cli][compare]") {
   if (!fs::exists(DIFFREG_TOOL)) return;
-  Scratch s;
+  Scratch s("cli-compare");
   const std::string in = "-i '" + shipped("bar.obj") + "' ";
   const std::string h = "--handles '" + shipped("bar-bend.json") + "' ";
   const std::pair<std::string, std::string> cases[] = {
@@ -106,11 +66,11 @@ TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",
   };
   for (const auto& [args, needle] : cases) {
     INFO(args);
-    std::string out, err;
-    CHECK(s.run(args, &out, &err) == 2);
-    INFO(err);
-    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
-    CHECK(err.find(needle) != std::string::npos);
+    const ToolRun r = s.run("compare " + args);
+    CHECK(r.code == 2);
+    INFO(r.err);
+    CHECK(lineCount(r.err) == 1);
+    CHECK(r.err.find(needle) != std::string::npos);
     CHECK(s.files() == 0);
   }
 }

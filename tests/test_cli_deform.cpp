@@ -1,57 +1,22 @@
 // diffreg end to end on the shipped scenarios of all three mesh kinds: diffuse_weights, deform
 // and measure chained on the command line, with the report's metrics and the outputs checked;
 // and the deformation's errors as one line with no output.
+#include "cli_fixture.h"
 #include "mesh/io.h"
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 
-#include <sys/wait.h>
-#include <unistd.h>
 
 using namespace diffreg;
 namespace fs = std::filesystem;
 
-namespace {
-
-std::string shipped(const std::string& name) {
-  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
-}
-
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-struct Scratch {
-  fs::path dir = fs::temp_directory_path() / ("diffreg-cli-deform-" + std::to_string(::getpid()));
-  Scratch() {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~Scratch() { fs::remove_all(dir); }
-
-  /// Runs the tool in the scratch directory; returns the exit code, stderr in `err`.
-  int run(const std::string& args, std::string* err = nullptr) const {
-    const std::string command = "cd '" + dir.string() + "' && '" + DIFFREG_TOOL + "' " + args +
-                                " > stdout.txt 2> stderr.txt";
-    const int status = std::system(command.c_str());
-    if (err) *err = slurp(dir / "stderr.txt");
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
-  bool has(const std::string& name) const { return fs::exists(dir / name); }
-};
-
-}  // namespace
+using namespace diffreg::testing;
 
 TEST_CASE("diffreg chains diffuse_weights, deform and measure on planar, surface and tet "
           "scenarios",
@@ -62,16 +27,14 @@ TEST_CASE("diffreg chains diffuse_weights, deform and measure on planar, surface
         std::tuple{"cylinder.obj", "cylinder-twist.json", "-o out.ply"},
         std::tuple{"tetbar.mesh", "tetbar-bend.json", "-o out.mesh -o out.ply"}}) {
     INFO(mesh);
-    Scratch s;
-    std::string err;
-    const int code = s.run("-i '" + shipped(mesh) + "' --handles '" + shipped(handles) +
+    Scratch s("cli-deform");
+    const ToolRun r = s.run("-i '" + shipped(mesh) + "' --handles '" + shipped(handles) +
                                "' --filter 'diffuse_weights t=0.01' --filter 'deform "
                                "energy=arap regularization=nonuniform iterations=10' --filter "
-                               "measure " + outputs + " --report r.json --quiet",
-                           &err);
-    INFO(err);
-    REQUIRE(code == 0);
-    CHECK(err.empty());
+                               "measure " + outputs + " --report r.json --quiet");
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    CHECK(r.err.empty());
     const auto report = nlohmann::json::parse(slurp(s.dir / "r.json"));
     const auto& filters = report["filters"];
     REQUIRE(filters.size() == 3);
@@ -105,7 +68,7 @@ TEST_CASE("diffreg chains diffuse_weights, deform and measure on planar, surface
 
 TEST_CASE("diffreg: deformation errors are one line and write nothing", "[cli][deform]") {
   if (!fs::exists(DIFFREG_TOOL)) return;
-  Scratch s;
+  Scratch s("cli-deform");
   // Two separate triangles; the handle pins only the first: the second is free.
   std::ofstream(s.dir / "two.off") << "OFF\n6 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 0\n4 0 0\n3 1 0\n"
                                       "3 0 1 2\n3 3 4 5\n";
@@ -122,11 +85,11 @@ TEST_CASE("diffreg: deformation errors are one line and write nothing", "[cli][d
   };
   for (const auto& [args, needle] : cases) {
     INFO(args);
-    std::string err;
-    CHECK(s.run(args, &err) != 0);
-    INFO(err);
-    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
-    CHECK(err.find(needle) != std::string::npos);
+    const ToolRun r = s.run(args);
+    CHECK(r.code != 0);
+    INFO(r.err);
+    CHECK(lineCount(r.err) == 1);
+    CHECK(r.err.find(needle) != std::string::npos);
     CHECK_FALSE(s.has("out.ply"));
   }
 }

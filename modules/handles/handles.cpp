@@ -1,11 +1,14 @@
 #include "handles/handles.h"
 
 #include "core/error.h"
+#include "core/xml.h"
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
+#include <cstdlib>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -18,9 +21,11 @@ namespace {
 
 using json = nlohmann::json;
 
-const std::vector<std::string> kHandleKeys = {"name",    "vertices",  "nearest",
-                                              "within",  "translate", "rotate",
-                                              "targets", "range",     "magnitude"};
+const std::vector<std::string> kHandleKeys = {"name",    "vertices",  "nearest",   "within",
+                                              "picked",  "translate", "rotate",    "targets",
+                                              "range",   "magnitude"};
+const std::vector<std::string> kFromPickedKeys = {"file",   "names", "translate",
+                                                  "rotate", "range", "magnitude"};
 
 std::string join(const std::vector<std::string>& words) {
   std::string out;
@@ -31,8 +36,9 @@ std::string join(const std::vector<std::string>& words) {
 /// Parses one handle file against a mesh; every error names the source and the handle.
 class Parser {
  public:
-  Parser(const Mesh& mesh, std::string source)
+  Parser(const Mesh& mesh, std::string source, std::string baseDir)
       : source_(std::move(source)),
+        baseDir_(std::move(baseDir)),
         rest_(mesh.positions()),
         used_(mesh.referenced()),
         planar_(mesh.kind() == MeshKind::Planar) {
@@ -53,18 +59,36 @@ class Parser {
       std::replace(what.begin(), what.end(), '\n', ' ');
       throw InvalidParameter(source_ + ": malformed JSON: " + what);
     }
-    if (!root.is_object() || !root.contains("handles") || !root["handles"].is_array()) {
+    if (!root.is_object() || (!root.contains("handles") && !root.contains("handles_from_picked")) ||
+        (root.contains("handles") && !root["handles"].is_array())) {
       throw InvalidParameter(source_ +
-                             ": expected an object {\"handles\": [...]} at the top level");
+                             ": expected an object {\"handles\": [...]} at the top level (and/or "
+                             "\"handles_from_picked\")");
     }
     for (const auto& item : root.items()) {
-      if (item.key() != "handles") {
-        throw InvalidParameter(source_ + ": unknown key '" + item.key() + "' (valid: handles)");
+      if (item.key() != "handles" && item.key() != "handles_from_picked") {
+        throw InvalidParameter(source_ + ": unknown key '" + item.key() +
+                               "' (valid: handles, handles_from_picked)");
       }
     }
     HandleSet set;
-    const json& list = root["handles"];
-    for (size_t i = 0; i < list.size(); ++i) set.handles.push_back(parseHandle(list[i], i));
+    if (root.contains("handles")) {
+      const json& list = root["handles"];
+      for (size_t i = 0; i < list.size(); ++i) set.handles.push_back(parseHandle(list[i], i));
+    }
+    if (root.contains("handles_from_picked")) {
+      const json& from = root["handles_from_picked"];
+      if (!from.is_object() && !from.is_array()) {
+        throw InvalidParameter(source_ +
+                               ": \"handles_from_picked\" must be an object {\"file\": ...} or a "
+                               "list of them");
+      }
+      if (from.is_object()) {
+        handlesFromPicked(from, 0, set);
+      } else {
+        for (size_t i = 0; i < from.size(); ++i) handlesFromPicked(from[i], i, set);
+      }
+    }
 
     std::set<std::string> names;
     std::map<int, size_t> owner;
@@ -86,7 +110,7 @@ class Parser {
 
  private:
   [[noreturn]] void fail(const std::string& message) const {
-    throw InvalidParameter(source_ + ": handle " + label_ + ": " + message);
+    throw InvalidParameter(source_ + ": " + label_ + ": " + message);
   }
 
   double number(const json& j, const std::string& what) const {
@@ -153,6 +177,8 @@ class Parser {
       for (size_t i = 0; i < (many ? n.size() : (n.empty() ? 0 : 1)); ++i) {
         ids.push_back(nearest(vec(many ? n[i] : n, "\"nearest\" point", planeZ_)));
       }
+    } else if (h.contains("picked")) {
+      ids = selectPicked(h["picked"]);
     } else {
       const json& w = h["within"];
       if (!w.is_object()) fail("\"within\" must be {\"center\": [..], \"radius\": r}");
@@ -233,8 +259,8 @@ class Parser {
     return targets;
   }
 
-  Handle parseHandle(const json& h, size_t index) {
-    label_ = "#" + std::to_string(index);
+  Handle parseHandle(const json& h, size_t index, const std::string& origin = "") {
+    label_ = "handle #" + std::to_string(index) + origin;
     if (!h.is_object()) fail("must be an object");
     Handle out;
     out.name = "handle" + std::to_string(index);
@@ -242,16 +268,17 @@ class Parser {
       if (!h["name"].is_string()) fail("\"name\" must be a string");
       out.name = h["name"].get<std::string>();
     }
-    label_ = "'" + out.name + "' (#" + std::to_string(index) + ")";
+    label_ = "handle '" + out.name + "' (#" + std::to_string(index) + origin + ")";
     for (const auto& item : h.items()) {
       if (std::find(kHandleKeys.begin(), kHandleKeys.end(), item.key()) == kHandleKeys.end()) {
         fail("unknown key '" + item.key() + "' (valid: " + join(kHandleKeys) + ")");
       }
     }
-    const int selections = h.contains("vertices") + h.contains("nearest") + h.contains("within");
+    const int selections = h.contains("vertices") + h.contains("nearest") + h.contains("within") +
+                           h.contains("picked");
     if (selections != 1) {
       fail(std::string(selections == 0 ? "no" : "more than one") +
-           " selection: give exactly one of \"vertices\", \"nearest\", \"within\"");
+           " selection: give exactly one of \"vertices\", \"nearest\", \"within\", \"picked\"");
     }
     const int motions = h.contains("translate") + h.contains("rotate") + h.contains("targets");
     if (motions > 1) fail("give at most one of \"translate\", \"rotate\", \"targets\"");
@@ -267,7 +294,145 @@ class Parser {
     return out;
   }
 
+  /// A .pp path from the handle file, resolved against the handle file's directory.
+  std::string resolve(const std::string& file) const {
+    std::filesystem::path path(file);
+    if (path.is_relative() && !baseDir_.empty()) path = std::filesystem::path(baseDir_) / path;
+    return path.lexically_normal().string();
+  }
+
+  /// The points of a resolved .pp path, read once per file.
+  const std::vector<PickedPoint>& loadPicked(const std::string& path) const {
+    const auto it = picked_.find(path);
+    if (it != picked_.end()) return it->second;
+    try {
+      return picked_.emplace(path, readPickedPoints(path)).first->second;
+    } catch (const IoError& e) {
+      throw IoError(source_ + ": " + label_ + ": " + e.what());
+    } catch (const InvalidParameter& e) {
+      throw InvalidParameter(source_ + ": " + label_ + ": " + e.what());
+    }
+  }
+
+  /// The active points of the .pp file `path`: all of them, or those named in `names`.
+  std::vector<const PickedPoint*> choosePicked(const std::string& path, const json* names) const {
+    const std::vector<PickedPoint>& points = loadPicked(path);
+    std::vector<const PickedPoint*> chosen;
+    if (!names) {
+      for (const PickedPoint& p : points)
+        if (p.active) chosen.push_back(&p);
+      if (points.empty()) fail(path + " has no points");
+      if (chosen.empty()) {
+        fail(path + " has no active points (all " + std::to_string(points.size()) +
+             " are inactive)");
+      }
+      return chosen;
+    }
+    if (!names->is_array() || names->empty()) {
+      fail("\"names\" must be a non-empty list of point names");
+    }
+    for (const json& n : *names) {
+      if (!n.is_string()) fail("point names must be strings, got " + n.dump());
+      const std::string name = n.get<std::string>();
+      bool found = false, active = false;
+      for (const PickedPoint& p : points) {
+        if (p.name != name) continue;
+        found = true;
+        if (p.active) {
+          active = true;
+          chosen.push_back(&p);
+        }
+      }
+      if (!found) {
+        std::vector<std::string> all;
+        for (const PickedPoint& p : points) {
+          if (all.size() == 20) {
+            all.push_back("...");
+            break;
+          }
+          all.push_back("'" + p.name + "'");
+        }
+        fail("no point named '" + name + "' in " + path +
+             (all.empty() ? std::string(" (it has no points)") : " (names: " + join(all) + ")"));
+      }
+      if (!active) fail("point '" + name + "' in " + path + " is not active");
+    }
+    return chosen;
+  }
+
+  /// "picked": "f.pp" or {"file": "f.pp", "names": [...]}: the vertex nearest to each chosen
+  /// active point.
+  std::vector<int> selectPicked(const json& p) const {
+    std::string file;
+    const json* names = nullptr;
+    if (p.is_string()) {
+      file = p.get<std::string>();
+    } else if (p.is_object()) {
+      for (const auto& item : p.items()) {
+        if (item.key() != "file" && item.key() != "names") {
+          fail("unknown key '" + item.key() + "' in \"picked\" (valid: file, names)");
+        }
+      }
+      if (!p.contains("file") || !p["file"].is_string()) {
+        fail("\"picked\" needs \"file\": the name of a MeshLab .pp file");
+      }
+      file = p["file"].get<std::string>();
+      if (p.contains("names")) names = &p["names"];
+    } else {
+      fail("\"picked\" must be a .pp file name or {\"file\": \"f.pp\", \"names\": [...]}");
+    }
+    if (file.empty()) fail("\"picked\" file name is empty");
+    const std::string path = resolve(file);
+    std::vector<int> ids;
+    std::map<int, const PickedPoint*> owner;
+    for (const PickedPoint* point : choosePicked(path, names)) {
+      const int v = nearest(point->position);
+      const auto [it, fresh] = owner.emplace(v, point);
+      if (!fresh) {
+        fail("picked points '" + it->second->name + "' (line " + std::to_string(it->second->line) +
+             ") and '" + point->name + "' (line " + std::to_string(point->line) + ") of " + path +
+             " are both nearest to vertex " + std::to_string(v));
+      }
+      ids.push_back(v);
+    }
+    return ids;
+  }
+
+  /// A "handles_from_picked" entry: one handle per chosen active point of a .pp file, named
+  /// after the point, with the entry's motion, range and magnitude.
+  void handlesFromPicked(const json& e, size_t index, HandleSet& set) {
+    label_ = "handles_from_picked #" + std::to_string(index);
+    if (!e.is_object()) fail("must be an object {\"file\": \"f.pp\", ...}");
+    for (const auto& item : e.items()) {
+      if (std::find(kFromPickedKeys.begin(), kFromPickedKeys.end(), item.key()) ==
+          kFromPickedKeys.end()) {
+        fail("unknown key '" + item.key() + "' (valid: " + join(kFromPickedKeys) + ")");
+      }
+    }
+    if (!e.contains("file") || !e["file"].is_string() || e["file"].get<std::string>().empty()) {
+      fail("needs \"file\": the name of a MeshLab .pp file");
+    }
+    if (e.contains("translate") && e.contains("rotate")) {
+      fail("give at most one of \"translate\", \"rotate\"");
+    }
+    const std::string path = resolve(e["file"].get<std::string>());
+    const std::vector<const PickedPoint*> chosen =
+        choosePicked(path, e.contains("names") ? &e["names"] : nullptr);
+    const PickedPoint* first = loadPicked(path).data();
+    for (const PickedPoint* point : chosen) {
+      json h = json::object();
+      h["name"] = point->name.empty() ? "picked" + std::to_string(point - first) : point->name;
+      h["nearest"] = {point->position[0], point->position[1], point->position[2]};
+      for (const char* key : {"translate", "rotate", "range", "magnitude"})
+        if (e.contains(key)) h[key] = e[key];
+      set.handles.push_back(parseHandle(h, set.handles.size(), ", from " + path));
+      label_ = "handles_from_picked #" + std::to_string(index);
+    }
+  }
+
   std::string source_;
+  std::string baseDir_;
+  mutable std::map<std::string, std::vector<PickedPoint>> picked_;  ///< .pp files read so far
   Eigen::MatrixXd rest_;
   std::vector<bool> used_;
   bool planar_;
@@ -299,6 +464,64 @@ std::vector<int> HandleSet::handleOfVertex(int numVertices) const {
   return out;
 }
 
+std::vector<PickedPoint> parsePickedPoints(const std::string& xmlText, const std::string& source) {
+  const XmlDocument doc = parseXml(xmlText, source);
+  auto fail = [&](int line, const std::string& message) {
+    throw InvalidParameter(source + ":" + std::to_string(line) + ": " + message);
+  };
+  if (doc.root.name != "PickedPoints") {
+    fail(doc.root.line, "the root element is <" + doc.root.name +
+                            ">; a MeshLab picked points file has <PickedPoints>");
+  }
+  std::vector<PickedPoint> points;
+  for (const XmlElement& e : doc.root.children) {
+    if (e.name != "point") continue;  // <DocumentData> and the like
+    PickedPoint p;
+    p.line = e.line;
+    if (const std::string* name = e.attribute("name")) p.name = *name;
+    const std::string what = "point" + (p.name.empty() ? std::string() : " '" + p.name + "'");
+    const char* axes[] = {"x", "y", "z"};
+    for (int c = 0; c < 3; ++c) {
+      const std::string* text = e.attribute(axes[c]);
+      if (!text) fail(e.line, what + " has no " + axes[c] + " attribute");
+      char* end = nullptr;
+      const double v = text->empty() ? 0.0 : std::strtod(text->c_str(), &end);
+      if (text->empty() || std::isspace(static_cast<unsigned char>((*text)[0])) || *end != '\0' ||
+          !std::isfinite(v)) {
+        fail(e.line, what + ": " + axes[c] + "=\"" + *text + "\" is not a finite number");
+      }
+      p.position[c] = v;
+    }
+    if (const std::string* active = e.attribute("active")) {
+      if (*active == "1" || *active == "true") {
+        p.active = true;
+      } else if (*active == "0" || *active == "false") {
+        p.active = false;
+      } else {
+        fail(e.line, what + ": active=\"" + *active + "\" is not one of 1, 0, true, false");
+      }
+    }
+    points.push_back(std::move(p));
+  }
+  return points;
+}
+
+std::vector<PickedPoint> readPickedPoints(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw IoError("cannot open picked points file '" + path + "': no such file");
+  }
+  if (std::filesystem::is_directory(path, ec)) {
+    throw IoError("cannot read picked points file '" + path + "': is a directory");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError("cannot open picked points file '" + path + "'");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw IoError("cannot read picked points file '" + path + "'");
+  return parsePickedPoints(text.str(), path);
+}
+
 HandleSet readHandles(const std::string& path, const Mesh& mesh) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
@@ -312,11 +535,12 @@ HandleSet readHandles(const std::string& path, const Mesh& mesh) {
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw IoError("cannot read handle file '" + path + "'");
-  return parseHandles(text.str(), mesh, path);
+  return parseHandles(text.str(), mesh, path, std::filesystem::path(path).parent_path().string());
 }
 
-HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source) {
-  return Parser(mesh, source).parse(jsonText);
+HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source,
+                       const std::string& baseDir) {
+  return Parser(mesh, source, baseDir).parse(jsonText);
 }
 
 std::string handlesToJson(const HandleSet& handles) {

@@ -28,15 +28,40 @@ struct HandleSet {
   std::vector<int> handleOfVertex(int numVertices) const;
 };
 
-/// Parses a handle file against `mesh` (rest positions): resolves "vertices", "nearest" and
-/// "within" selections and "translate", "rotate" and "targets" motions to absolute targets.
-/// \throw IoError unreadable file. \throw InvalidParameter malformed JSON, unknown keys,
-///        vertex ids out of range, empty handle, a vertex in two handles, range <= 0,
-///        magnitude < 0 (each naming the file and the handle).
+/// One point of a MeshLab PickedPoints (.pp) file.
+struct PickedPoint {
+  std::string name;          ///< the point's name ("" when the file gives none)
+  Eigen::Vector3d position;  ///< x, y, z
+  bool active = true;        ///< MeshLab's check box: only active points select vertices
+  int line = 0;              ///< line of the <point> element in the file
+};
+
+/// Parses a MeshLab PickedPoints file: <PickedPoints> with <point x= y= z= active= name=/>
+/// elements (active "1"/"0" or "true"/"false", default active; <DocumentData> and other
+/// elements are ignored). `source` names the text in messages.
+/// \throw InvalidParameter "source:line: ..." for malformed XML, another root element, or a
+///        point whose x, y or z is missing or not a finite number, or whose active flag is not
+///        one of 1, 0, true, false.
+std::vector<PickedPoint> parsePickedPoints(const std::string& xmlText, const std::string& source);
+
+/// Reads a PickedPoints file (see parsePickedPoints).
+/// \throw IoError missing or unreadable file; InvalidParameter as parsePickedPoints.
+std::vector<PickedPoint> readPickedPoints(const std::string& path);
+
+/// Parses a handle file against `mesh` (rest positions): resolves "vertices", "nearest",
+/// "within" and "picked" (MeshLab .pp) selections, top-level "handles_from_picked" entries
+/// (one handle per picked point) and "translate", "rotate" and "targets" motions to absolute
+/// targets. Relative .pp paths are resolved against the handle file's directory.
+/// \throw IoError unreadable handle or .pp file. \throw InvalidParameter malformed JSON or
+///        .pp, unknown keys, vertex ids out of range, empty handle, a vertex in two handles,
+///        range <= 0, magnitude < 0, a .pp without active points, a picked name not found
+///        (each naming the file and the handle).
 HandleSet readHandles(const std::string& path, const Mesh& mesh);
 
-/// Same, from JSON text; `source` names it in messages.
-HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source);
+/// Same, from JSON text; `source` names it in messages and relative .pp paths are resolved
+/// against `baseDir` ("" = the working directory).
+HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source,
+                       const std::string& baseDir = "");
 
 /// Writes the resolved handles as JSON ("vertices" + "targets") that readHandles accepts.
 std::string handlesToJson(const HandleSet& handles);

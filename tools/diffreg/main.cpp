@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "mesh/io.h"
+#include "pipeline/mlx.h"
 #include "pipeline/pipeline.h"
 #include "plugins.h"
 
@@ -41,9 +42,10 @@ namespace {
 
 
 const char* kUsage =
-    "Usage: diffreg -i IN [--handles H.json] [--filter 'NAME key=value ...']... -o OUT\n"
-    "               [--report R.json] [--quiet]\n"
+    "Usage: diffreg -i IN [--handles H.json] [-s SCRIPT.mlx] [--filter 'NAME key=value ...']...\n"
+    "               -o OUT [--report R.json] [--quiet]\n"
     "       diffreg filters      list every filter with its parameters\n"
+    "       diffreg filters --mlx  print a MeshLab .mlx script of every filter at its defaults\n"
     "       diffreg compare ...  none / uniform / non-uniform regularization side by side\n"
     "       diffreg --help | --version\n"
     "\n"
@@ -51,7 +53,8 @@ const char* kUsage =
     "OUT picks the format (obj, off, ply, om for triangle meshes; mesh, or ply for the boundary\n"
     "surface of a tet mesh); -o may be repeated. PLY output carries the weights as vertex\n"
     "quality and colours and the distortion as face quality. Without --filter the mesh\n"
-    "is only converted. Nothing is written when anything fails.\n";
+    "is only converted. Nothing is written when anything fails.\n"
+    "-s runs the filters of a MeshLab FilterScript (.mlx) first, then any --filter ones.\n";
 
 /// Wraps `text` to `width` columns, each line starting with `indent`.
 std::string wrap(const std::string& text, const std::string& indent, size_t width = 78) {
@@ -106,6 +109,10 @@ int runPipeline(const po::variables_map& vm) {
 
   // Everything that can be checked before work is checked first.
   Pipeline pipeline;
+  if (vm.count("script")) {
+    for (const Step& step : readFilterScript(vm["script"].as<std::string>()))
+      pipeline.add(step.filter, step.values);
+  }
   if (vm.count("filter")) {
     for (const auto& spec : vm["filter"].as<std::vector<std::string>>()) {
       const auto [name, values] = parseFilterSpec(spec);
@@ -146,6 +153,9 @@ int run(int argc, char** argv) {
       ("filter,f", po::value<std::vector<std::string>>()->composing(),
        "'NAME key=value ...': a filter to apply; repeat for a chain, applied in order")  //
       ("report,r", po::value<std::string>(), "write a JSON report of the run")           //
+      ("script,s", po::value<std::string>(),
+       "MeshLab .mlx filter script: its filters run first, then any --filter ones")  //
+      ("mlx", po::bool_switch(), "with 'filters': print a MeshLab .mlx script instead")  //
       ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
   po::options_description hidden;
   hidden.add_options()("command", po::value<std::vector<std::string>>());
@@ -177,9 +187,11 @@ int run(int argc, char** argv) {
                        (commands[0] == "filters" ? commands[1] : commands[0]) +
                        "' (commands: filters; see diffreg --help)");
     }
-    std::cout << describeFilters(registry);
+    std::cout << (vm["mlx"].as<bool>() ? defaultFilterScript(registry) : describeFilters(registry));
     return 0;
   }
+  if (vm["mlx"].as<bool>())
+    throw UsageError("--mlx goes with the filters command: diffreg filters --mlx");
   return runPipeline(vm);
 }
 
