@@ -1,0 +1,54 @@
+/// \file
+/// \brief Everything a program embedding diffreg needs, in one include.
+///
+/// \mainpage diffreg API
+///
+/// diffreg deforms planar triangle meshes, surfaces and tetrahedral solids with variational
+/// energies (ARAP, ASAP, linearized ARAP, Dirichlet) regularized by diffused, non-uniform
+/// weights (Zhu, Li, Zhang, Song, Computer-Aided Design 2016). Link the installed package with
+///
+///     find_package(diffreg 0.1 CONFIG REQUIRED)
+///     target_link_libraries(my_program PRIVATE diffreg::diffreg)
+///
+/// and include `<diffreg/diffreg.h>`. Three levels of use:
+///
+/// - **One-shot functions on your own OpenMesh mesh** (diffreg/openmesh.h):
+///   diffreg::computeDiffusedWeights, diffreg::deform, diffreg::measure and
+///   diffreg::runPipeline store their results as the properties `diffreg:weight` (vertex) and
+///   `diffreg:distortion`, `diffreg:smoothness` (face) on any
+///   `OpenMesh::TriMesh_ArrayKernelT<Traits>` and leave its other properties alone.
+/// - **Editing sessions** that keep their factorizations between edits and count the work
+///   (SolverStats): diffreg::DiffusionWeights (a new t or range costs one numeric
+///   factorization, a new magnitude one solve) and diffreg::DeformationSession (new targets
+///   cost one solve per iteration), both on a diffreg::Discretization of a diffreg::Mesh
+///   (diffreg::fromOpenMesh, diffreg::readMesh or the shapes of mesh/shapes.h).
+/// - **Pipelines of filters**: diffreg::Pipeline with filter names and parameter maps from
+///   diffreg::Registry::builtin(), run on a diffreg::Document; the same filters and parameter
+///   tables as the `diffreg` command-line tool and its `.mlx` scripts.
+///
+/// Every error is a diffreg::Error subclass (core/error.h) with a one-line message naming the
+/// file, element or parameter at fault. `<diffreg/version.h>` defines DIFFREG_VERSION_MAJOR,
+/// DIFFREG_VERSION_MINOR, DIFFREG_VERSION_PATCH and DIFFREG_VERSION_STRING.
+#pragma once
+
+#include <diffreg/version.h>
+
+#include "core/error.h"
+#include "deformation/deformer.h"
+#include "deformation/energy.h"
+#include "deformation/metrics.h"
+#include "discretization/discretization.h"
+#include "handles/handles.h"
+#include "mesh/io.h"
+#include "mesh/mesh.h"
+#include "mesh/shapes.h"
+#include "pipeline/document.h"
+#include "pipeline/filter.h"
+#include "pipeline/params.h"
+#include "pipeline/pipeline.h"
+#include "plugins.h"
+#include "solver/solver.h"
+#include "weights/diffusion.h"
+#include "weights/rbf.h"
+
+#include <diffreg/openmesh.h>
