@@ -2,9 +2,13 @@
 // `diffreg filters --mlx` writes a script the tool reads back, and a bad script is one line
 // naming the file with nothing written.
 #include "cli_fixture.h"
+#include "mesh/io.h"
+#include "pipeline/document.h"
+#include "pipeline/pipeline.h"
 
 #include <catch2/catch.hpp>
 
+using namespace diffreg;
 using namespace diffreg::testing;
 
 namespace {
@@ -42,6 +46,27 @@ TEST_CASE("diffreg -s runs a MeshLab script exactly as the same --filter chain",
   const std::string script = slurp(s.dir / "script.ply"), chain = slurp(s.dir / "chain.ply");
   CHECK(script.size() > 1000);
   CHECK(script == chain);
+
+  // The same pipeline built in code: the same positions and weights (OM keeps doubles).
+  REQUIRE(s.run(in + "-s chain.mlx -o script.om -q").code == 0);
+  REQUIRE(s.run(in +
+                "--filter 'diffuse_weights t=0.01' --filter 'deform energy=arap "
+                "regularization=nonuniform iterations=10' -o chain.om -q")
+              .code == 0);
+  Document doc = Document::load(shipped("bar.obj"), shipped("bar-bend.json"));
+  Pipeline inCode;
+  inCode.add("diffuse_weights", {{"t", "0.01"}})
+      .add("deform", {{"energy", "arap"}, {"regularization", "nonuniform"}, {"iterations", "10"}});
+  inCode.run(doc);
+  for (const char* file : {"script.om", "chain.om"}) {
+    INFO(file);
+    const Mesh written = readMesh((s.dir / file).string());
+    REQUIRE(written.hasVertexScalar("diffreg:weight"));
+    CHECK((written.positions() - doc.mesh.positions()).cwiseAbs().maxCoeff() <= 1e-12);
+    CHECK((written.vertexScalar("diffreg:weight") - doc.mesh.vertexScalar("diffreg:weight"))
+              .cwiseAbs()
+              .maxCoeff() <= 1e-12);
+  }
   // The script's filters run first, then the --filter ones.
   const ToolRun c = s.run(in + "-s chain.mlx --filter measure -o measured.ply --report r.json -q");
   INFO(c.err);
