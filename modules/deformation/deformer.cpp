@@ -13,10 +13,11 @@ DeformationSession::DeformationSession(const Discretization& disc,
     : disc_(disc),
       options_(options),
       model_(disc, options.energy),
-      system_(model_, options.backend) {
+      system_(model_, options.backend, options.reserveRegularization) {
   if (options.energy == Energy::Arap && disc.kind() == MeshKind::Planar) {
     initModel_ = std::make_unique<ResidualModel>(disc, Energy::Asap);
-    initSystem_ = std::make_unique<RegularizedSystem>(*initModel_, options.backend);
+    initSystem_ = std::make_unique<RegularizedSystem>(*initModel_, options.backend,
+                                                      options.reserveRegularization);
   }
   setRegularization(options.regularization, options.beta, options.weights);
 }
@@ -84,27 +85,31 @@ DeformationResult DeformationSession::solve(int maxIterations, double relToleran
                            " must be at least 1");
   if (!(relTolerance >= 0.0)) throw InvalidParameter("deformation: tolerance must be non-negative");
   const RegularizationWeights& w = system_.weights();
+  // The local step at X: t_ fitted to X, residuals e_ and the energy, in one pass.
   auto energyAt = [&](const Eigen::MatrixXd& X) {
-    model_.targets(X, t_);
-    model_.residuals(X, t_, e_);
-    const double E = model_.energy(e_, w);
+    const double E = model_.fit(X, w, t_, e_);
     if (!std::isfinite(E))
       throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
     return E;
   };
+  auto report = [&](int iteration, double E) {
+    if (options_.progress) options_.progress(iteration, E);
+  };
 
   DeformationResult result;
   if (!model_.iterative()) {
-    model_.targets(disc_.rest(), t_);
-    result.positions = system_.solve(t_, targets_);
+    if (restTargets_.size() == 0) model_.targets(disc_.rest(), restTargets_);  // constant
+    result.positions = system_.solve(restTargets_, targets_);
     result.energies.push_back(energyAt(result.positions));
     result.iterations = 1;
+    report(1, result.energies.back());
     return result;
   }
 
-  // Initial local step: the rotations of the rest shape (identities), or those of the
-  // regularized ASAP solution.
-  Eigen::MatrixXd X = disc_.rest();
+  // Initial local step: the rotations of the rest shape (identities, fitted once per session),
+  // or those of the regularized ASAP solution.
+  Eigen::MatrixXd X;
+  const Eigen::MatrixXd* t = &t_;
   double E = std::numeric_limits<double>::infinity();
   if (initSystem_ && initSystem_->singularity().empty()) {
     Eigen::MatrixXd t0;
@@ -114,15 +119,18 @@ DeformationResult DeformationSession::solve(int maxIterations, double relToleran
     E = energyAt(X);  // also fits t_ to X
     result.energies.push_back(E);
   } else {
-    model_.targets(X, t_);
+    if (restTargets_.size() == 0) model_.targets(disc_.rest(), restTargets_);
+    t = &restTargets_;
   }
   result.converged = false;
   for (int it = 0; it < maxIterations; ++it) {
-    X = system_.solve(t_, targets_);
+    X = system_.solve(*t, targets_);
+    t = &t_;
     const double previous = E;
     E = energyAt(X);
     result.energies.push_back(E);
     ++result.iterations;
+    report(result.iterations, E);
     if (std::isfinite(previous) && std::abs(previous - E) <= relTolerance * previous) {
       result.converged = true;
       break;

@@ -9,6 +9,7 @@
 #include "deformation/system.h"
 #include "solver/solver.h"
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -23,6 +24,15 @@ struct DeformationOptions {
   int maxIterations = 50;      ///< local/global iterations (ARAP, ASAP in 3D)
   double relTolerance = 1e-6;  ///< stop when the energy drops by less than this fraction
   SolverBackend backend = defaultSolverBackend();
+  /// Keep the regularizer's couplings in the system's sparsity pattern while the regularization
+  /// is none, so that a later setBeta / setWeights costs a numeric factorization only (paper
+  /// Fig. 5). false: a session that starts without regularization factors the plain energy's
+  /// smaller system (about half the factorization time on surfaces), and its first
+  /// regularization then costs one symbolic analysis more.
+  bool reserveRegularization = true;
+  /// Called after every global step with the 1-based iteration count and the energy
+  /// (DeformationResult::energies); linear energies report one step. Exceptions propagate.
+  std::function<void(int iteration, double energy)> progress;
 };
 
 struct DeformationResult {
@@ -84,6 +94,7 @@ class DeformationSession {
   std::vector<int> handles_;
   Eigen::MatrixXd targets_;
   Eigen::MatrixXd t_, e_;  // targets and residuals, reused across iterations
+  Eigen::MatrixXd restTargets_;  // targets fitted to the rest shape (first local step), cached
 };
 
 /// One-shot: deforms `disc` with the handle vertices moved to `targets`.

@@ -1,13 +1,13 @@
 #include "deformation/energy.h"
 
 #include "core/error.h"
+#include "deformation/parallel.h"
 #include "deformation/rotation.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <string>
-#include <thread>
 #include <vector>
 
 namespace diffreg {
@@ -109,59 +109,138 @@ RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regu
 
 namespace {
 
+constexpr int kGrain = 2048;  // elements (or facets) per parallel chunk
+
 // Local step of the iterative energies: T_k = R_k (ARAP) or s_k R_k (ASAP), R_k the closest
-// rotation to F_k with det > 0 (flipping the singular vector of the smallest singular value),
-// s_k = tr(Sigma) / 2 (surfaces) or / 3 (tets); surfaces act on the tangent plane: T_k P_k.
-// Stored transposed (separable layout: e_k = F_k^T - T_k^T).
+// rotation to F_k with det > 0, s_k = tr(R_k^T F_k) / 2 (surfaces) or / 3 (tets) (the sum of the
+// singular values, the smallest negated for a reflection); surfaces act on the tangent plane:
+// T_k P_k. Stored transposed (separable layout: e_k = F_k^T - T_k^T). Closed forms (planar,
+// surface) and the polar Newton iteration (tets) give the rotation of the SVD to rounding; the
+// SVD remains for degenerate and inverted elements. With `e`, also writes the residuals and,
+// with `beta`, returns sum_k (1 - beta_k) a_k D_k (else 0).
 template <int D>
-void fitRotationRange(const Discretization& disc, bool scaled, const Eigen::MatrixXd& X,
-                      Eigen::MatrixXd& t, int begin, int end) {
+double fitRotationRange(const Discretization& disc, bool scaled, const Eigen::MatrixXd& X,
+                        Eigen::MatrixXd& t, Eigen::MatrixXd* e, const Eigen::VectorXd* beta,
+                        int begin, int end) {
   using Mat = Eigen::Matrix<double, D, D>;
   using Vec = Eigen::Matrix<double, D, 1>;
-  const int s = disc.elementSize();
+  constexpr int S = D == 2 ? 3 : -1;  // element size known at compile time for planar meshes
+  const int s = S > 0 ? S : disc.elementSize();
   const Eigen::MatrixXi& el = disc.elements();
+  const Eigen::MatrixXd& grads = disc.gradients();
   const bool surface = disc.kind() == MeshKind::Surface;
   const double scaleDivisor = surface ? 2.0 : static_cast<double>(D);
+  double weighted = 0.0;
   for (int k = begin; k < end; ++k) {
-    const auto G = disc.gradient(k);
     Mat F = Mat::Zero();
+    const Eigen::Index g0 = static_cast<Eigen::Index>(k) * s;
     for (int i = 0; i < s; ++i) {
-      const Vec x = X.row(el(k, i)).transpose();
-      const Vec g = G.row(i).transpose();
-      F.noalias() += x * g.transpose();
+      const Eigen::Index v = el(k, i);
+      for (int b = 0; b < D; ++b) {
+        const double g = grads(g0 + i, b);
+        for (int a = 0; a < D; ++a) F(a, b) += X(v, a) * g;
+      }
     }
-    Vec sigma;
-    Mat T = closestRotation<D>(F, sigma);
-    if (scaled) T *= sigma.sum() / scaleDivisor;
-    if (surface) {
-      const Vec n = disc.normals().row(k).transpose();
-      T = T - (T * n) * n.transpose();
+    Mat T;
+    double trace = 0.0;
+    bool done = false;
+    if constexpr (D == 2) {
+      T = closestRotation2(F, trace);
+      done = true;
+    } else if (surface) {
+      const Eigen::Vector3d n = disc.normals().row(k).transpose();
+      done = tangentRotation(F, n, T, trace);
+      if (!done) {
+        Vec sigma;
+        T = closestRotation<D>(F, sigma);
+        trace = sigma.sum();
+        T = T - (T * n) * n.transpose();
+        done = true;
+      }
+    } else {
+      done = polarRotation3(F, T, trace);
     }
-    t.block<D, D>(static_cast<Eigen::Index>(k) * D, 0) = T.transpose();
+    if (!done) {
+      Vec sigma;
+      T = closestRotation<D>(F, sigma);
+      trace = sigma.sum();
+    }
+    if (scaled) T *= trace / scaleDivisor;
+    const Eigen::Index row = static_cast<Eigen::Index>(k) * D;
+    for (int a = 0; a < D; ++a)
+      for (int b = 0; b < D; ++b) t(row + a, b) = T(b, a);
+    if (e) {
+      double d2 = 0.0;
+      for (int a = 0; a < D; ++a)
+        for (int b = 0; b < D; ++b) {
+          const double r = F(b, a) - T(b, a);
+          (*e)(row + a, b) = r;
+          d2 += r * r;
+        }
+      if (beta) weighted += (1.0 - (*beta)(k)) * disc.measures()(k) * d2;
+    }
   }
+  return weighted;
 }
 
-// Runs body(begin, end) over [0, n) in a few threads when n is large; each element's work is
-// independent and writes only its own rows.
+// Residuals e_k = L_k x_k - t_k of elements [begin, end) and, with `beta`,
+// sum_k (1 - beta_k) a_k D_k.
+double residualRange(const Discretization& disc, const Eigen::MatrixXd& L, int q, int r, int u,
+                     const Eigen::MatrixXd& X, const Eigen::MatrixXd& t, Eigen::MatrixXd& e,
+                     const Eigen::VectorXd* beta, int begin, int end) {
+  const int c = static_cast<int>(t.cols()), s = disc.elementSize(), d = disc.dim();
+  const Eigen::MatrixXi& el = disc.elements();
+  const bool coupled = q > 1;
+  Eigen::MatrixXd xk(u, c), ek(r, c);
+  double weighted = 0.0;
+  for (int k = begin; k < end; ++k) {
+    for (int i = 0; i < s; ++i) {
+      const int v = el(k, i);
+      if (coupled)
+        for (int a = 0; a < d; ++a) xk(i * d + a, 0) = X(v, a);
+      else
+        xk.row(i) = X.row(v);
+    }
+    const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
+    ek.noalias() = L.block(row, 0, r, u) * xk;
+    ek -= t.block(row, 0, r, c);
+    e.block(row, 0, r, c) = ek;
+    if (beta) weighted += (1.0 - (*beta)(k)) * disc.measures()(k) * ek.squaredNorm();
+  }
+  return weighted;
+}
+
+// sum_f beta_f c_f ||e_k - e_l||^2 over facets [begin, end).
+double facetRange(const std::vector<Facet>& facets, const Eigen::VectorXd& beta, int r,
+                  const Eigen::MatrixXd& e, int begin, int end) {
+  const int c = static_cast<int>(e.cols());
+  double sum = 0.0;
+  for (int f = begin; f < end; ++f) {
+    const double w = beta(f) * facets[f].c;
+    if (w == 0.0) continue;
+    const Eigen::Index k = static_cast<Eigen::Index>(facets[f].k) * r;
+    const Eigen::Index l = static_cast<Eigen::Index>(facets[f].l) * r;
+    double d2 = 0.0;
+    for (int b = 0; b < c; ++b)
+      for (int a = 0; a < r; ++a) {
+        const double x = e(k + a, b) - e(l + a, b);
+        d2 += x * x;
+      }
+    sum += w * d2;
+  }
+  return sum;
+}
+
+// Sum of per-chunk partial sums in chunk order: the same value for any number of threads.
 template <class Body>
-void parallelFor(int n, const Body& body) {
-  const int hardware = static_cast<int>(std::thread::hardware_concurrency());
-  const int chunks = n < 8192 ? 1 : std::max(1, std::min(hardware, 8));
-  if (chunks == 1) return body(0, n);
-  std::vector<std::thread> threads;
-  threads.reserve(static_cast<size_t>(chunks - 1));
-  const int step = (n + chunks - 1) / chunks;
-  for (int c = 1; c < chunks; ++c)
-    threads.emplace_back(body, std::min(n, c * step), std::min(n, (c + 1) * step));
-  body(0, std::min(n, step));
-  for (auto& th : threads) th.join();
-}
-
-template <int D>
-void fitRotations(const Discretization& disc, bool scaled, const Eigen::MatrixXd& X,
-                  Eigen::MatrixXd& t) {
-  parallelFor(disc.numElements(),
-              [&](int begin, int end) { fitRotationRange<D>(disc, scaled, X, t, begin, end); });
+double chunkedSum(int n, const Body& body) {
+  std::vector<double> partial(static_cast<size_t>(parallel::numChunks(n, kGrain)), 0.0);
+  parallel::forChunks(n, kGrain, [&](int chunk, int begin, int end) {
+    partial[static_cast<size_t>(chunk)] = body(begin, end);
+  });
+  double sum = 0.0;
+  for (double p : partial) sum += p;
+  return sum;
 }
 
 // Row-major vec of a d x d matrix: index a * d + b.
@@ -268,29 +347,56 @@ void ResidualModel::targets(const Eigen::MatrixXd& X, Eigen::MatrixXd& t) const 
     return;
   }
   const bool scaled = energy_ == Energy::Asap;
-  if (d_ == 2)
-    fitRotations<2>(disc_, scaled, X, t);
-  else
-    fitRotations<3>(disc_, scaled, X, t);
+  parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
+    if (d_ == 2)
+      fitRotationRange<2>(disc_, scaled, X, t, nullptr, nullptr, begin, end);
+    else
+      fitRotationRange<3>(disc_, scaled, X, t, nullptr, nullptr, begin, end);
+  });
 }
 
 void ResidualModel::residuals(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t,
                               Eigen::MatrixXd& e) const {
-  const int m = disc_.numElements();
   if (e.rows() != t.rows() || e.cols() != c_) e.resize(t.rows(), c_);
-  Eigen::MatrixXd xk(u_, c_);
-  const Eigen::MatrixXi& el = disc_.elements();
-  for (int k = 0; k < m; ++k) {
-    for (int i = 0; i < s_; ++i) {
-      const int v = el(k, i);
-      if (coupled_)
-        for (int a = 0; a < d_; ++a) xk(i * d_ + a, 0) = X(v, a);
-      else
-        xk.row(i) = X.row(v);
+  parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
+    residualRange(disc_, L_, q_, r_, u_, X, t, e, nullptr, begin, end);
+  });
+}
+
+double ResidualModel::fit(const Eigen::MatrixXd& X, const RegularizationWeights& w,
+                          Eigen::MatrixXd& t, Eigen::MatrixXd& e) const {
+  const Eigen::Index rows = fixedT_.rows();
+  if (t.rows() != rows || t.cols() != c_) t.resize(rows, c_);
+  if (e.rows() != rows || e.cols() != c_) e.resize(rows, c_);
+  const bool scaled = energy_ == Energy::Asap;
+  const double elementSum = chunkedSum(disc_.numElements(), [&](int begin, int end) {
+    if (!iterative_) {
+      t.middleRows(static_cast<Eigen::Index>(begin) * r_,
+                   static_cast<Eigen::Index>(end - begin) * r_) =
+          fixedT_.middleRows(static_cast<Eigen::Index>(begin) * r_,
+                             static_cast<Eigen::Index>(end - begin) * r_);
+      return residualRange(disc_, L_, q_, r_, u_, X, t, e, &w.element, begin, end);
     }
-    e.block(static_cast<Eigen::Index>(k) * r_, 0, r_, c_).noalias() = local(k) * xk;
-  }
-  e -= t;
+    if (d_ == 2) return fitRotationRange<2>(disc_, scaled, X, t, &e, &w.element, begin, end);
+    return fitRotationRange<3>(disc_, scaled, X, t, &e, &w.element, begin, end);
+  });
+  return scaledEnergy(elementSum, facetEnergy(e, w));
+}
+
+double ResidualModel::facetEnergy(const Eigen::MatrixXd& e, const RegularizationWeights& w) const {
+  const auto& facets = disc_.facets();
+  if (facets.empty() || w.facet.size() == 0 || w.facet.cwiseAbs().maxCoeff() == 0.0) return 0.0;
+  return chunkedSum(static_cast<int>(facets.size()), [&](int begin, int end) {
+    return facetRange(facets, w.facet, r_, e, begin, end);
+  });
+}
+
+double ResidualModel::scaledEnergy(double elementSum, double facetSum) const {
+  // Physical a_k and c_kl rescaled to the unit-mean-edge mesh: a' = ell^-md a, c' = ell^-(md-1) c
+  // (METHOD.md §3).
+  const double ell = disc_.meanEdgeLength();
+  const double aScale = std::pow(ell, -disc_.measureDim()), cScale = aScale * ell;
+  return aScale * elementSum + cScale * facetSum;
 }
 
 Eigen::MatrixXd ResidualModel::residuals(const Eigen::MatrixXd& X) const {
@@ -320,21 +426,14 @@ Eigen::VectorXd ResidualModel::facetDifference(const Eigen::MatrixXd& e) const {
 }
 
 double ResidualModel::energy(const Eigen::MatrixXd& e, const RegularizationWeights& w) const {
-  // Physical a_k and c_kl rescaled to the unit-mean-edge mesh: a' = ell^-md a, c' = ell^-(md-1) c
-  // (METHOD.md §3).
-  const double ell = disc_.meanEdgeLength();
-  const double aScale = std::pow(ell, -disc_.measureDim()), cScale = aScale * ell;
-  double E = 0.0;
-  for (int k = 0; k < disc_.numElements(); ++k)
-    E += (1.0 - w.element(k)) * aScale * disc_.measures()(k) *
-         e.block(static_cast<Eigen::Index>(k) * r_, 0, r_, c_).squaredNorm();
-  const auto& facets = disc_.facets();
-  for (size_t f = 0; f < facets.size(); ++f)
-    E += w.facet(static_cast<Eigen::Index>(f)) * cScale * facets[f].c *
-         (e.block(static_cast<Eigen::Index>(facets[f].k) * r_, 0, r_, c_) -
-          e.block(static_cast<Eigen::Index>(facets[f].l) * r_, 0, r_, c_))
-             .squaredNorm();
-  return E;
+  const double elementSum = chunkedSum(disc_.numElements(), [&](int begin, int end) {
+    double sum = 0.0;
+    for (int k = begin; k < end; ++k)
+      sum += (1.0 - w.element(k)) * disc_.measures()(k) *
+             e.block(static_cast<Eigen::Index>(k) * r_, 0, r_, c_).squaredNorm();
+    return sum;
+  });
+  return scaledEnergy(elementSum, facetEnergy(e, w));
 }
 
 }  // namespace diffreg

@@ -82,6 +82,8 @@ class ResidualModel {
   Eigen::Block<const Eigen::MatrixXd> local(int k) const {
     return L_.block(static_cast<Eigen::Index>(k) * r_, 0, r_, u_);
   }
+  /// All L_k stacked: (m rows()) x localSize().
+  const Eigen::MatrixXd& locals() const { return L_; }
   /// Global unknown index of element k's local unknown j.
   int unknown(int k, int j) const;
 
@@ -98,6 +100,11 @@ class ResidualModel {
                  Eigen::MatrixXd& e) const;
   /// Residuals at `positions` with the targets fitted to them.
   Eigen::MatrixXd residuals(const Eigen::MatrixXd& positions) const;
+  /// The local step, the residuals and the energy in one pass over the elements (in parallel):
+  /// fits `t` to `positions` as targets() does, sets `e` as residuals() does and returns
+  /// energy(e, weights). `t` and `e` are resized only when their shape is wrong.
+  double fit(const Eigen::MatrixXd& positions, const RegularizationWeights& weights,
+             Eigen::MatrixXd& t, Eigen::MatrixXd& e) const;
 
   /// D_k = ||e_k||_F^2 per element from stacked residuals.
   Eigen::VectorXd distortion(const Eigen::MatrixXd& e) const;
@@ -109,6 +116,10 @@ class ResidualModel {
   double energy(const Eigen::MatrixXd& e, const RegularizationWeights& weights) const;
 
  private:
+  // sum_f beta_kl c_kl ||e_k - e_l||^2 (0 without facet weights) and the unit rescaling.
+  double facetEnergy(const Eigen::MatrixXd& e, const RegularizationWeights& weights) const;
+  double scaledEnergy(double elementSum, double facetSum) const;
+
   const Discretization& disc_;
   Energy energy_;
   bool coupled_, iterative_;

@@ -1,6 +1,7 @@
 #include "deformation/system.h"
 
 #include "core/error.h"
+#include "deformation/parallel.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -8,8 +9,16 @@
 
 namespace diffreg {
 
-RegularizedSystem::RegularizedSystem(const ResidualModel& model, SolverBackend backend)
-    : model_(model), solver_(backend) {
+namespace {
+
+constexpr int kGrain = 2048;  // elements or unknowns per parallel chunk
+
+}  // namespace
+
+RegularizedSystem::RegularizedSystem(const ResidualModel& model, SolverBackend backend,
+                                     bool reserveCouplings)
+    : model_(model), reserveCouplings_(reserveCouplings), solver_(backend) {
+  buildTopology();
   setWeights(makeRegularizationWeights(model.discretization(), Regularization::None, 0.0));
 }
 
@@ -19,69 +28,210 @@ void RegularizedSystem::setHandles(const std::vector<int>& vertices) {
 }
 
 void RegularizedSystem::setWeights(const RegularizationWeights& weights) {
+  const Discretization& disc = model_.discretization();
+  const auto& facets = disc.facets();
+  const double ell = disc.meanEdgeLength();
   weights_ = weights;
+  elementWeight_ = (1.0 - weights.element.array()) * disc.measures().array();
+  facetWeight_.resize(static_cast<Eigen::Index>(facets.size()));
+  hasFacetWeights_ = false;
+  for (size_t f = 0; f < facets.size(); ++f) {
+    const double w = ell * weights.facet(static_cast<Eigen::Index>(f)) * facets[f].c;
+    facetWeight_(static_cast<Eigen::Index>(f)) = w;
+    if (w != 0.0) hasFacetWeights_ = true;
+  }
+  const bool couplings = reserveCouplings_ || hasFacetWeights_ || couplings_;
+  if (A_.rows() == 0 || couplings != couplings_) buildPattern(couplings);
   assemble();
   matrixDirty_ = true;
+}
+
+void RegularizedSystem::buildTopology() {
+  const Discretization& disc = model_.discretization();
+  const int m = disc.numElements(), u = model_.localSize(), N = model_.numUnknowns();
+  incidenceStart_.assign(static_cast<size_t>(N) + 1, 0);
+  for (int k = 0; k < m; ++k)
+    for (int j = 0; j < u; ++j) ++incidenceStart_[static_cast<size_t>(model_.unknown(k, j)) + 1];
+  for (int p = 0; p < N; ++p) incidenceStart_[p + 1] += incidenceStart_[p];
+  incidenceElement_.resize(static_cast<size_t>(incidenceStart_[N]));
+  incidenceLocal_.resize(incidenceElement_.size());
+  std::vector<int> fill(incidenceStart_.begin(), incidenceStart_.end() - 1);
+  for (int k = 0; k < m; ++k)
+    for (int j = 0; j < u; ++j) {
+      const int at = fill[model_.unknown(k, j)]++;
+      incidenceElement_[at] = k;
+      incidenceLocal_[at] = j;
+    }
+  const auto& facets = disc.facets();
+  facetStart_.assign(static_cast<size_t>(m) + 1, 0);
+  for (const Facet& f : facets) {
+    ++facetStart_[static_cast<size_t>(f.k) + 1];
+    ++facetStart_[static_cast<size_t>(f.l) + 1];
+  }
+  for (int k = 0; k < m; ++k) facetStart_[k + 1] += facetStart_[k];
+  elementFacets_.resize(static_cast<size_t>(facetStart_[m]));
+  fill.assign(facetStart_.begin(), facetStart_.end() - 1);
+  for (size_t f = 0; f < facets.size(); ++f) {
+    elementFacets_[fill[facets[f].k]++] = static_cast<int>(f);
+    elementFacets_[fill[facets[f].l]++] = static_cast<int>(f);
+  }
+}
+
+// Column p of A couples p with every unknown of the elements that touch p and, with the
+// facets' couplings, of their neighbours across a facet (the union of a facet's two elements).
+void RegularizedSystem::buildPattern(bool couplings) {
+  const Discretization& disc = model_.discretization();
+  const auto& facets = disc.facets();
+  const int u = model_.localSize(), N = model_.numUnknowns();
+  std::vector<int> outer(static_cast<size_t>(N) + 1, 0), inner, mark(static_cast<size_t>(N), -1);
+  std::vector<int> column;
+  inner.reserve(static_cast<size_t>(incidenceElement_.size()) * (couplings ? 4 : 2));
+  for (int p = 0; p < N; ++p) {
+    column.clear();
+    auto addElement = [&](int k) {
+      for (int j = 0; j < u; ++j) {
+        const int q = model_.unknown(k, j);
+        if (mark[q] != p) {
+          mark[q] = p;
+          column.push_back(q);
+        }
+      }
+    };
+    for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
+      const int k = incidenceElement_[at];
+      addElement(k);
+      if (!couplings) continue;
+      for (int g = facetStart_[k]; g < facetStart_[k + 1]; ++g) {
+        const Facet& f = facets[elementFacets_[g]];
+        addElement(f.k == k ? f.l : f.k);
+      }
+    }
+    std::sort(column.begin(), column.end());
+    inner.insert(inner.end(), column.begin(), column.end());
+    outer[p + 1] = static_cast<int>(inner.size());
+  }
+  A_ = SparseMatrix(N, N);
+  A_.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
+  std::copy(outer.begin(), outer.end(), A_.outerIndexPtr());
+  std::copy(inner.begin(), inner.end(), A_.innerIndexPtr());
+  couplings_ = couplings;
 }
 
 void RegularizedSystem::assemble() {
   const Discretization& disc = model_.discretization();
   const int m = disc.numElements(), r = model_.rows(), u = model_.localSize();
-  const int N = model_.numUnknowns();
   const auto& facets = disc.facets();
-  const double ell = disc.meanEdgeLength();
-  std::vector<Eigen::Triplet<double>> a, c;
-  const size_t unionSize = static_cast<size_t>(u + model_.dofsPerVertex());
-  a.reserve(static_cast<size_t>(m) * u * u + facets.size() * unionSize * unionSize);
-  c.reserve(static_cast<size_t>(m) * u * r + 2 * facets.size() * unionSize * r);
+  const Eigen::Index mr = static_cast<Eigen::Index>(m) * r;
+  double* values = A_.valuePtr();
+  const int* outer = A_.outerIndexPtr();
+  const int* inner = A_.innerIndexPtr();
+  std::fill(values, values + A_.nonZeros(), 0.0);
+  auto entry = [&](int row, int col) -> double& {
+    const int* begin = inner + outer[col];
+    const int* end = inner + outer[col + 1];
+    return values[std::lower_bound(begin, end, row) - inner];
+  };
+  // L_k(row, j) of the stacked operators: column-major (m r) x u.
+  const double* L = model_.locals().data();
+  auto Lk = [&](int k, int row, int j) {
+    return L[j * mr + static_cast<Eigen::Index>(k) * r + row];
+  };
 
-  // Elements: (1 - beta_k) a_k L_k^T L_k and its right-hand-side operator.
-  std::vector<int> ids(u);
+  // Elements: (1 - beta_k) a_k L_k^T L_k.
+  std::vector<int> ids(static_cast<size_t>(2 * u));
   for (int k = 0; k < m; ++k) {
-    const double w = (1.0 - weights_.element(k)) * disc.measures()(k);
-    const auto L = model_.local(k);
-    const Eigen::MatrixXd LtL = w * L.transpose() * L;
+    const double w = elementWeight_(k);
+    if (w == 0.0) continue;
     for (int j = 0; j < u; ++j) ids[j] = model_.unknown(k, j);
-    for (int i = 0; i < u; ++i) {
-      for (int j = 0; j < u; ++j) a.emplace_back(ids[i], ids[j], LtL(i, j));
-      for (int row = 0; row < r; ++row) c.emplace_back(ids[i], k * r + row, w * L(row, i));
-    }
+    for (int j = 0; j < u; ++j)
+      for (int i = 0; i < u; ++i) {
+        double sum = 0.0;
+        for (int row = 0; row < r; ++row) sum += Lk(k, row, i) * Lk(k, row, j);
+        entry(ids[i], ids[j]) += w * sum;
+      }
   }
+  if (!couplings_) return;
 
   // Facets: ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) over the union of their unknowns.
-  std::vector<int> uni;
-  Eigen::MatrixXd M;
+  std::vector<double> M(static_cast<size_t>(r) * 2 * u);  // r x U, column-major
   for (size_t f = 0; f < facets.size(); ++f) {
+    const double w = facetWeight_(static_cast<Eigen::Index>(f));
+    if (w == 0.0) continue;
     const Facet& fc = facets[f];
-    const double w = ell * weights_.facet(static_cast<Eigen::Index>(f)) * fc.c;
-    uni.clear();
-    for (int j = 0; j < u; ++j) uni.push_back(model_.unknown(fc.k, j));
-    M.setZero(r, u + u);
-    M.leftCols(u) = model_.local(fc.k);
-    const auto Ll = model_.local(fc.l);
+    int U = u;
+    for (int j = 0; j < u; ++j) {
+      ids[j] = model_.unknown(fc.k, j);
+      for (int row = 0; row < r; ++row) M[j * r + row] = Lk(fc.k, row, j);
+    }
     for (int j = 0; j < u; ++j) {
       const int id = model_.unknown(fc.l, j);
-      auto it = std::find(uni.begin(), uni.end(), id);
-      const int pos = static_cast<int>(it - uni.begin());
-      if (it == uni.end()) uni.push_back(id);
-      M.col(pos) -= Ll.col(j);
-    }
-    const int U = static_cast<int>(uni.size());
-    const Eigen::MatrixXd MtM = w * M.leftCols(U).transpose() * M.leftCols(U);
-    for (int i = 0; i < U; ++i) {
-      for (int j = 0; j < U; ++j) a.emplace_back(uni[i], uni[j], MtM(i, j));
-      for (int row = 0; row < r; ++row) {
-        c.emplace_back(uni[i], fc.k * r + row, w * M(row, i));
-        c.emplace_back(uni[i], fc.l * r + row, -w * M(row, i));
+      int pos = 0;
+      while (pos < U && ids[pos] != id) ++pos;
+      if (pos == U) {
+        ids[U++] = id;
+        for (int row = 0; row < r; ++row) M[pos * r + row] = 0.0;
       }
+      for (int row = 0; row < r; ++row) M[pos * r + row] -= Lk(fc.l, row, j);
     }
+    for (int j = 0; j < U; ++j)
+      for (int i = 0; i < U; ++i) {
+        double sum = 0.0;
+        for (int row = 0; row < r; ++row) sum += M[i * r + row] * M[j * r + row];
+        entry(ids[i], ids[j]) += w * sum;
+      }
   }
-  A_.resize(N, N);
-  A_.setFromTriplets(a.begin(), a.end());
-  A_.makeCompressed();
-  C_.resize(N, static_cast<Eigen::Index>(m) * r);
-  C_.setFromTriplets(c.begin(), c.end());
-  C_.makeCompressed();
+}
+
+void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd& b) const {
+  const Discretization& disc = model_.discretization();
+  const auto& facets = disc.facets();
+  const int m = disc.numElements(), r = model_.rows(), c = model_.columns();
+  const int N = model_.numUnknowns();
+  const Eigen::Index mr = static_cast<Eigen::Index>(m) * r;
+  if (b.rows() != N || b.cols() != c) b.resize(N, c);
+  // tau_k = w_k t_k + sum_(facets kl) w_kl (t_k - t_l); without facet weights tau_k = w_k t_k
+  // and the gather below applies w_k itself.
+  const Eigen::MatrixXd* tau = &t;
+  if (hasFacetWeights_) {
+    if (tau_.rows() != mr || tau_.cols() != c) tau_.resize(mr, c);
+    parallel::forChunks(m, kGrain, [&](int, int begin, int end) {
+      for (int k = begin; k < end; ++k) {
+        const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
+        for (int col = 0; col < c; ++col)
+          for (int a = 0; a < r; ++a) {
+            const double tk = t(row + a, col);
+            double sum = elementWeight_(k) * tk;
+            for (int g = facetStart_[k]; g < facetStart_[k + 1]; ++g) {
+              const int f = elementFacets_[g];
+              const int other = facets[f].k == k ? facets[f].l : facets[f].k;
+              sum += facetWeight_(f) * (tk - t(static_cast<Eigen::Index>(other) * r + a, col));
+            }
+            tau_(row + a, col) = sum;
+          }
+      }
+    });
+    tau = &tau_;
+  }
+  const bool scale = !hasFacetWeights_;
+  const double* L = model_.locals().data();
+  parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
+    double acc[9];
+    for (int p = begin; p < end; ++p) {
+      for (int col = 0; col < c; ++col) acc[col] = 0.0;
+      for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
+        const int k = incidenceElement_[at], j = incidenceLocal_[at];
+        const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
+        const double w = scale ? elementWeight_(k) : 1.0;
+        const double* Lj = L + j * mr + row;  // column j of L_k
+        for (int col = 0; col < c; ++col) {
+          double sum = 0.0;
+          for (int a = 0; a < r; ++a) sum += Lj[a] * (*tau)(row + a, col);
+          acc[col] += w * sum;
+        }
+      }
+      for (int col = 0; col < c; ++col) b(p, col) = acc[col];
+    }
+  });
 }
 
 namespace {
@@ -182,11 +332,22 @@ Eigen::MatrixXd RegularizedSystem::solve(const Eigen::MatrixXd& t,
     }
     matrixDirty_ = false;
   }
-  Eigen::MatrixXd known = disc.rest();
-  for (size_t i = 0; i < handles_.size(); ++i)
-    known.row(handles_[i]) = handlePositions.row(static_cast<Eigen::Index>(i));
-  const Eigen::MatrixXd xFixed = solver_.partition().gatherFixed(model_.toUnknowns(known));
-  b_.noalias() = C_ * t;
+  // Fixed values: handle positions, rest positions of vertices without elements.
+  std::vector<int> handleOf(static_cast<size_t>(disc.numVertices()), -1);
+  for (size_t i = 0; i < handles_.size(); ++i) handleOf[handles_[i]] = static_cast<int>(i);
+  const Partition& part = solver_.partition();
+  const int c = model_.columns(), d = disc.dim();
+  Eigen::MatrixXd xFixed(part.numFixed(), c);
+  for (int i = 0; i < part.numFixed(); ++i) {
+    const int id = part.fixedIds()[i], v = id / q;
+    const int h = handleOf[v];
+    for (int col = 0; col < c; ++col) {
+      const int a = q > 1 ? id % q : col;
+      xFixed(i, col) = h >= 0 ? handlePositions(h, a) : disc.rest()(v, a);
+    }
+  }
+  (void)d;
+  rightHandSide(t, b_);
   return model_.toPositions(solver_.solve(b_, xFixed));
 }
 

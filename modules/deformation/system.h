@@ -5,6 +5,11 @@
 //
 //     A = J^T W J + (D J)^T Ws (D J),      A x = C t,   C = J^T (W + D^T Ws D).
 //
+// C is never formed: C t = sum_k L_k^T tau_k with tau_k = w_k t_k + sum_(facets kl of k)
+// w_kl (t_k - t_l), gathered per unknown. A is assembled into a sparsity pattern built once per
+// session (the elements' and, unless left out, the facets' couplings), so new weights rewrite
+// values only.
+//
 // ell is the mean rest edge length. METHOD.md §3 measures a_k and c_kl on the rest mesh scaled
 // to unit mean edge length: a' = ell^-md a, c' = ell^-(md-1) c and G' = ell G, so its matrix is
 // ell^(2-md) times this A. A constant factor leaves the minimizer unchanged: beta means the same
@@ -22,15 +27,21 @@ namespace diffreg {
 
 class RegularizedSystem {
  public:
+  /// `reserveCouplings`: keep the regularizer's facet couplings in the sparsity pattern even
+  /// while every facet weight is zero, so that any later setWeights() refactorizes numerically
+  /// only (paper Fig. 5). When false, the pattern holds only what the current weights need
+  /// (plain energies: the elements' couplings, a smaller factorization) and the first nonzero
+  /// facet weight adds the couplings, which costs one symbolic analysis.
   explicit RegularizedSystem(const ResidualModel& model,
-                             SolverBackend backend = defaultSolverBackend());
+                             SolverBackend backend = defaultSolverBackend(),
+                             bool reserveCouplings = true);
 
   /// Constrained vertices (all their coordinates): the next solve analyzes the pattern again.
   /// Vertices without elements are always held at their rest positions.
   /// \pre ids valid and distinct (DeformationSession checks them).
   void setHandles(const std::vector<int>& vertices);
-  /// New regularization weights: A and C are reassembled with the same sparsity pattern (zero
-  /// weights stay structural), so the next solve refactorizes numerically only.
+  /// New regularization weights: A is reassembled with the same sparsity pattern (zero weights
+  /// stay structural), so the next solve refactorizes numerically only (see reserveCouplings).
   void setWeights(const RegularizationWeights& weights);
   const RegularizationWeights& weights() const { return weights_; }
 
@@ -44,17 +55,28 @@ class RegularizedSystem {
 
   /// The full system matrix A (numUnknowns() square), assembled for the current weights.
   const SparseMatrix& matrix() const { return A_; }
+  /// The right-hand side C t (numUnknowns() x model().columns()) for stacked targets t.
+  void rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd& b) const;
   const SolverStats& stats() const { return solver_.stats(); }
   const ResidualModel& model() const { return model_; }
 
  private:
+  void buildTopology();
+  void buildPattern(bool couplings);
   void assemble();
 
   const ResidualModel& model_;
   RegularizationWeights weights_;
   std::vector<int> handles_;
-  SparseMatrix A_, C_;
-  Eigen::MatrixXd b_;  // right-hand side, reused
+  // Per unknown p: the (element, local unknown) pairs that touch it, CSR.
+  std::vector<int> incidenceStart_, incidenceElement_, incidenceLocal_;
+  // Per element: its facets, CSR.
+  std::vector<int> facetStart_, elementFacets_;
+  Eigen::VectorXd elementWeight_, facetWeight_;  // (1 - beta_k) a_k and ell beta_kl c_kl
+  bool hasFacetWeights_ = false, reserveCouplings_ = true, couplings_ = false;
+  SparseMatrix A_;
+  mutable Eigen::MatrixXd tau_;  // per-element right-hand-side weights, reused
+  Eigen::MatrixXd b_;            // right-hand side, reused
   EliminatedSolver solver_;
   bool partitionDirty_ = true, matrixDirty_ = true;
 };

@@ -5,8 +5,9 @@
 
 #include <Eigen/SparseCholesky>
 #ifdef DIFFREG_HAVE_CHOLMOD
-#include <Eigen/CholmodSupport>
+#include <cholmod.h>
 #endif
+#include <algorithm>
 #include <string>
 
 namespace diffreg {
@@ -44,31 +45,121 @@ const char* toString(SolverBackend backend) {
   return backend == SolverBackend::Cholmod ? "cholmod" : "eigen";
 }
 
-// Both backends behind one small interface; CHOLMOD's supernodal LL^T when available.
+// Both backends behind one small interface. CHOLMOD through its C API: the symbolic analysis
+// chooses the fill-reducing ordering (AMD, and METIS as well when AMD's fill is poor) and between
+// a simplicial and a supernodal factorization by the work per nonzero of L: small and very
+// sparse factors (flops / nnz(L) below kSupernodalSwitch) go up-looking and simplicial, which
+// avoids the per-supernode BLAS and OpenMP overhead that dominates them; larger ones supernodal
+// on BLAS. Both are LL^T, so a matrix that is not positive definite is always reported.
+namespace {
+#ifdef DIFFREG_HAVE_CHOLMOD
+// Measured on this project's systems (surface and tet deformation systems, eq. 7 / eq. 8
+// weights, 1K to 100K unknowns): simplicial is faster below about 150-250 flops per nonzero of L
+// (CHOLMOD's default switch, 40, is tuned for machines where BLAS calls are cheap).
+constexpr double kSupernodalSwitch = 200.0;
+
+const char* orderingName(int ordering) {
+  switch (ordering) {
+    case CHOLMOD_NATURAL: return "natural";
+    case CHOLMOD_GIVEN: return "given";
+    case CHOLMOD_AMD: return "AMD";
+    case CHOLMOD_METIS: return "METIS";
+    case CHOLMOD_NESDIS: return "NESDIS";
+    case CHOLMOD_COLAMD: return "COLAMD";
+    case CHOLMOD_POSTORDERED: return "natural, postordered";
+  }
+  return "?";
+}
+
+// A CHOLMOD view (no copy) of the lower triangle of a compressed symmetric matrix.
+cholmod_sparse viewOf(const SparseMatrix& A) {
+  cholmod_sparse s{};
+  s.nrow = static_cast<size_t>(A.rows());
+  s.ncol = static_cast<size_t>(A.cols());
+  s.nzmax = static_cast<size_t>(A.nonZeros());
+  s.p = const_cast<int*>(A.outerIndexPtr());
+  s.i = const_cast<int*>(A.innerIndexPtr());
+  s.x = const_cast<double*>(A.valuePtr());
+  s.stype = -1;
+  s.itype = CHOLMOD_INT;
+  s.xtype = CHOLMOD_REAL;
+  s.dtype = CHOLMOD_DOUBLE;
+  s.sorted = 1;
+  s.packed = 1;
+  return s;
+}
+#endif
+}  // namespace
+
 struct SpdSolver::Impl {
   SolverBackend backend;
   Eigen::SimplicialLDLT<SparseMatrix> ldlt;
+  SolverInfo info;
 #ifdef DIFFREG_HAVE_CHOLMOD
-  Eigen::CholmodSupernodalLLT<SparseMatrix> cholmod;
+  cholmod_common common{};
+  cholmod_factor* factor = nullptr;
+  // Solve workspace, reused while the number of right-hand sides is unchanged.
+  cholmod_dense *x = nullptr, *y = nullptr, *e = nullptr;
 #endif
   explicit Impl(SolverBackend b) : backend(b) {
 #ifdef DIFFREG_HAVE_CHOLMOD
-    cholmod.cholmod().print = 0;  // failures are reported as SingularSystem, not on stderr
+    cholmod_start(&common);
+    common.print = 0;             // failures are reported as SingularSystem, not on stderr
+    common.error_handler = nullptr;
+    common.supernodal = CHOLMOD_AUTO;
+    common.supernodal_switch = kSupernodalSwitch;
+    common.final_ll = 1;          // simplicial LL^T: a non-positive pivot is always an error
+    common.quick_return_if_not_posdef = 1;
 #else
     backend = SolverBackend::Eigen;
 #endif
   }
+  ~Impl() {
+#ifdef DIFFREG_HAVE_CHOLMOD
+    freeFactor();
+    cholmod_finish(&common);
+#endif
+  }
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+
+#ifdef DIFFREG_HAVE_CHOLMOD
+  void freeFactor() {
+    if (factor) cholmod_free_factor(&factor, &common);
+    if (x) cholmod_free_dense(&x, &common);
+    if (y) cholmod_free_dense(&y, &common);
+    if (e) cholmod_free_dense(&e, &common);
+  }
+#endif
+
   void analyze(const SparseMatrix& A) {
 #ifdef DIFFREG_HAVE_CHOLMOD
-    if (backend == SolverBackend::Cholmod) return cholmod.analyzePattern(A);
+    if (backend == SolverBackend::Cholmod) {
+      freeFactor();
+      cholmod_sparse a = viewOf(A);
+      factor = cholmod_analyze(&a, &common);
+      if (!factor || common.status < CHOLMOD_OK)
+        throw SingularSystem("solver: CHOLMOD's symbolic analysis failed (status " +
+                             std::to_string(common.status) + ", " + std::to_string(A.rows()) +
+                             " unknowns)");
+      info.method = factor->is_super ? "CHOLMOD supernodal LL^T" : "CHOLMOD simplicial LL^T";
+      info.ordering = orderingName(factor->ordering);
+      info.factorNonZeros = common.lnz;
+      info.flops = common.fl;
+      return;
+    }
 #endif
     ldlt.analyzePattern(A);
+    info.method = "Eigen simplicial LDL^T";
+    info.ordering = "AMD";
+    info.factorNonZeros = info.flops = 0.0;
   }
   bool factorize(const SparseMatrix& A) {
 #ifdef DIFFREG_HAVE_CHOLMOD
     if (backend == SolverBackend::Cholmod) {
-      cholmod.factorize(A);
-      return cholmod.info() == Eigen::Success;
+      cholmod_sparse a = viewOf(A);
+      const int ok = cholmod_factorize(&a, factor, &common);
+      return ok && common.status == CHOLMOD_OK && factor->minor == factor->n;
     }
 #endif
     ldlt.factorize(A);
@@ -77,7 +168,21 @@ struct SpdSolver::Impl {
   }
   Eigen::MatrixXd solve(const Eigen::MatrixXd& B) {
 #ifdef DIFFREG_HAVE_CHOLMOD
-    if (backend == SolverBackend::Cholmod) return cholmod.solve(B);
+    if (backend == SolverBackend::Cholmod) {
+      cholmod_dense b{};
+      b.nrow = static_cast<size_t>(B.rows());
+      b.ncol = static_cast<size_t>(B.cols());
+      b.nzmax = b.nrow * b.ncol;
+      b.d = b.nrow;
+      b.x = const_cast<double*>(B.data());
+      b.xtype = CHOLMOD_REAL;
+      b.dtype = CHOLMOD_DOUBLE;
+      if (!cholmod_solve2(CHOLMOD_A, factor, &b, nullptr, &x, nullptr, &y, &e, &common))
+        throw SingularSystem("solver: CHOLMOD's solve failed (status " +
+                             std::to_string(common.status) + ")");
+      return Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(x->x), B.rows(),
+                                               B.cols());
+    }
 #endif
     return ldlt.solve(B);
   }
@@ -88,11 +193,21 @@ SpdSolver::~SpdSolver() = default;
 SpdSolver::SpdSolver(SpdSolver&&) noexcept = default;
 SpdSolver& SpdSolver::operator=(SpdSolver&&) noexcept = default;
 
+SolverInfo SpdSolver::info() const { return impl_->info; }
+
 namespace {
 std::vector<int> patternOf(const SparseMatrix& A) {
   std::vector<int> p(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
   p.insert(p.end(), A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
   return p;
+}
+
+// Whether compressed A has exactly this pattern (outer then inner indices).
+bool samePattern(const SparseMatrix& A, const std::vector<int>& pattern) {
+  const size_t outer = static_cast<size_t>(A.outerSize()) + 1;
+  if (pattern.size() != outer + static_cast<size_t>(A.nonZeros())) return false;
+  return std::equal(A.outerIndexPtr(), A.outerIndexPtr() + outer, pattern.begin()) &&
+         std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), pattern.begin() + outer);
 }
 }  // namespace
 
@@ -119,7 +234,17 @@ void SpdSolver::factorize(const SparseMatrix& A) {
     throw SingularSystem("solver: factorize() needs analyze() of a matrix of the same size");
   Timer timer;
   factorized_ = false;
-  if (A.rows() > 0 && !impl_->factorize(A))
+  bool ok = true;
+  if (A.rows() > 0) {
+    if (A.isCompressed()) {
+      ok = impl_->factorize(A);
+    } else {
+      SparseMatrix C = A;
+      C.makeCompressed();
+      ok = impl_->factorize(C);
+    }
+  }
+  if (!ok)
     throw SingularSystem("solver: the system matrix (" + std::to_string(A.rows()) +
                          " unknowns) is not positive definite");
   factorized_ = true;
@@ -135,12 +260,15 @@ void SpdSolver::compute(const SparseMatrix& A, bool analyzeAgain) {
     C.makeCompressed();
     M = &C;
   }
-  if (analyzeAgain || !analyzed() || M->rows() != size_ || patternOf(*M) != pattern_) analyze(*M);
+  if (analyzeAgain || !analyzed() || M->rows() != size_ || !samePattern(*M, pattern_)) analyze(*M);
   factorize(*M);
 }
 
 Eigen::MatrixXd SpdSolver::solve(const Eigen::MatrixXd& B) {
   if (!factorized_) throw SingularSystem("solver: solve() before a successful factorization");
+  if (B.rows() != size_)
+    throw InvalidParameter("solver: right-hand side with " + std::to_string(B.rows()) +
+                           " rows for " + std::to_string(size_) + " unknowns");
   Timer timer;
   Eigen::MatrixXd X = size_ == 0 ? Eigen::MatrixXd(0, B.cols()) : impl_->solve(B);
   stats_.solves += 1;
@@ -159,20 +287,32 @@ Partition::Partition(const std::vector<bool>& fixed) : local_(fixed.size()), isF
 }
 
 namespace {
-// The block of A with rows in `rowsFixed` and columns in `colsFixed` (false = free).
+// The block of A with the free rows and the free (colsFixed = false) or fixed columns, built
+// column by column: local() is increasing within each class, so rows stay sorted.
 SparseMatrix block(const Partition& p, const SparseMatrix& A, bool colsFixed) {
   const int cols = colsFixed ? p.numFixed() : p.numFree();
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(static_cast<size_t>(A.nonZeros()));
-  for (int j = 0; j < A.outerSize(); ++j) {
-    if (p.isFixed(j) != colsFixed) continue;
-    for (SparseMatrix::InnerIterator it(A, j); it; ++it)
-      if (!p.isFixed(static_cast<int>(it.row())))
-        t.emplace_back(p.local(static_cast<int>(it.row())), p.local(j), it.value());
-  }
+  const std::vector<int>& ids = colsFixed ? p.fixedIds() : p.freeIds();
   SparseMatrix B(p.numFree(), cols);
-  B.setFromTriplets(t.begin(), t.end());
-  B.makeCompressed();
+  Eigen::Index count = 0;
+  for (int j : ids)
+    for (SparseMatrix::InnerIterator it(A, j); it; ++it)
+      if (!p.isFixed(static_cast<int>(it.row()))) ++count;
+  B.resizeNonZeros(count);
+  int* outer = B.outerIndexPtr();
+  int* inner = B.innerIndexPtr();
+  double* values = B.valuePtr();
+  Eigen::Index at = 0;
+  outer[0] = 0;
+  for (int c = 0; c < cols; ++c) {
+    for (SparseMatrix::InnerIterator it(A, ids[c]); it; ++it) {
+      const int row = static_cast<int>(it.row());
+      if (p.isFixed(row)) continue;
+      inner[at] = p.local(row);
+      values[at] = it.value();
+      ++at;
+    }
+    outer[c + 1] = static_cast<int>(at);
+  }
   return B;
 }
 

@@ -1,11 +1,12 @@
 // Sparse SPD solver with separate symbolic analysis, numeric factorization and solve, each
-// counted and timed, and Dirichlet (eliminated) unknowns. CHOLMOD supernodal when built with
-// it, Eigen's SimplicialLDLT otherwise.
+// counted and timed, and Dirichlet (eliminated) unknowns. CHOLMOD (simplicial or supernodal,
+// chosen per matrix) when built with it, Eigen's SimplicialLDLT otherwise.
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace diffreg {
@@ -20,12 +21,22 @@ struct SolverStats {
 };
 SolverStats operator-(const SolverStats& a, const SolverStats& b);
 
+/// What the last symbolic analysis chose, for reports and benchmarks.
+struct SolverInfo {
+  std::string method;           ///< e.g. "CHOLMOD supernodal LL^T", "CHOLMOD simplicial LL^T"
+  std::string ordering;         ///< fill-reducing ordering: "AMD", "METIS", ...
+  double factorNonZeros = 0.0;  ///< nnz(L) (CHOLMOD only, else 0)
+  double flops = 0.0;           ///< flops of the numeric factorization (CHOLMOD only, else 0)
+};
+
 enum class SolverBackend { Cholmod, Eigen };
 /// The backend this build uses by default.
 SolverBackend defaultSolverBackend();
 const char* toString(SolverBackend backend);
 
-/// Cholesky of a symmetric positive definite matrix (lower triangle used).
+/// Cholesky of a symmetric positive definite matrix (lower triangle used). CHOLMOD picks the
+/// fill-reducing ordering and a simplicial or supernodal factorization by the size of the
+/// factor (see solver.cpp); Eigen's SimplicialLDLT is the fallback backend.
 class SpdSolver {
  public:
   explicit SpdSolver(SolverBackend backend = defaultSolverBackend());
@@ -42,10 +53,13 @@ class SpdSolver {
   /// factorizes: a new matrix with the same pattern costs one numeric factorization.
   void compute(const SparseMatrix& A, bool analyzeAgain = false);
   /// Solves A X = B for all columns of B at once.
-  /// \throw SingularSystem when nothing is factorized or the solution is not finite.
+  /// \throw SingularSystem when nothing is factorized or the solution is not finite;
+  ///        InvalidParameter when B's row count is not the size of A.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& B);
   bool analyzed() const { return !pattern_.empty() || analyzedEmpty_; }
   const SolverStats& stats() const { return stats_; }
+  /// Method, ordering and size of the last analysis.
+  SolverInfo info() const;
 
  private:
   struct Impl;
@@ -100,6 +114,7 @@ class EliminatedSolver {
   /// \throw SingularSystem when the solution is not finite.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b, const Eigen::MatrixXd& xFixed);
   const SolverStats& stats() const { return solver_.stats(); }
+  SolverInfo info() const { return solver_.info(); }
 
  private:
   Partition partition_;

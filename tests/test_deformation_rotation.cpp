@@ -1,0 +1,158 @@
+// The local step's closed-form and iterative rotations agree with the SVD, and the session's
+// performance options (reserved couplings, progress callback) change no result.
+#include "test_deformation_fixtures.h"
+
+#include "deformation/rotation.h"
+
+#include <catch2/catch.hpp>
+#include <random>
+
+using namespace diffreg;
+using namespace diffreg::testing;
+
+namespace {
+
+template <int D>
+Eigen::Matrix<double, D, D> randomMatrix(std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::Matrix<double, D, D> F;
+  for (int i = 0; i < D; ++i)
+    for (int j = 0; j < D; ++j) F(i, j) = n(rng);
+  return F;
+}
+
+}  // namespace
+
+TEST_CASE("the planar closed form is the SVD's closest rotation", "[deformation][rotation]") {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 2000; ++trial) {
+    const Eigen::Matrix2d F = randomMatrix<2>(rng);
+    double trace = 0.0;
+    const Eigen::Matrix2d R = closestRotation2(F, trace);
+    Eigen::Vector2d sigma;
+    const Eigen::Matrix2d S = closestRotation<2>(F, sigma);
+    CHECK((R - S).cwiseAbs().maxCoeff() < 1e-10);
+    CHECK(R.determinant() == Approx(1.0).epsilon(1e-12));
+    CHECK(trace == Approx(sigma.sum()).epsilon(1e-10));
+    CHECK(trace == Approx((R.transpose() * F).trace()).epsilon(1e-12));
+  }
+  // A reflection with equal singular values: every rotation is as close; the identity is taken.
+  double trace = 1.0;
+  const Eigen::Matrix2d R = closestRotation2(Eigen::Vector2d(1.0, -1.0).asDiagonal(), trace);
+  CHECK(R.isIdentity());
+  CHECK(trace == 0.0);
+}
+
+TEST_CASE("the polar Newton iteration is the SVD's closest rotation for det F > 0",
+          "[deformation][rotation]") {
+  std::mt19937 rng(11);
+  int accepted = 0, refused = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const Eigen::Matrix3d F = randomMatrix<3>(rng);
+    Eigen::Matrix3d R = Eigen::Matrix3d::Constant(7.0);
+    double trace = 0.0;
+    if (!polarRotation3(F, R, trace)) {
+      ++refused;
+      CHECK(R == Eigen::Matrix3d::Constant(7.0));  // untouched
+      continue;
+    }
+    ++accepted;
+    REQUIRE(F.determinant() > 0.0);
+    Eigen::Vector3d sigma;
+    const Eigen::Matrix3d S = closestRotation<3>(F, sigma);
+    CHECK((R - S).cwiseAbs().maxCoeff() < 1e-8);
+    CHECK(trace == Approx(sigma.sum()).epsilon(1e-8));
+  }
+  // About half the random matrices are inverted (det < 0): those go to the SVD.
+  CHECK(accepted > 800);
+  CHECK(refused > 800);
+  Eigen::Matrix3d R;
+  double trace = 0.0;
+  CHECK_FALSE(polarRotation3(Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal(), R, trace));
+  CHECK_FALSE(polarRotation3(Eigen::Vector3d(1.0, 1.0, 0.0).asDiagonal(), R, trace));
+}
+
+TEST_CASE("the tangent-plane closed form is the SVD rotation restricted to the tangent plane",
+          "[deformation][rotation]") {
+  std::mt19937 rng(13);
+  int accepted = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    Eigen::Vector3d n = randomMatrix<3>(rng).col(0).normalized();
+    if (trial == 0) n = Eigen::Vector3d(0, 0, -1);  // the frame's branch point
+    if (trial == 1) n = Eigen::Vector3d(0, 0, 1);
+    const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - n * n.transpose();
+    const Eigen::Matrix3d F = randomMatrix<3>(rng) * P;  // F n = 0, as for surface elements
+    Eigen::Matrix3d T;
+    double trace = 0.0;
+    if (!tangentRotation(F, n, T, trace)) continue;
+    ++accepted;
+    Eigen::Vector3d sigma;
+    const Eigen::Matrix3d R = closestRotation<3>(F, sigma);
+    const Eigen::Matrix3d S = R - (R * n) * n.transpose();
+    CHECK((T - S).cwiseAbs().maxCoeff() < 1e-8);
+    CHECK(trace == Approx(sigma.sum()).epsilon(1e-8));
+    CHECK((T * n).norm() < 1e-12);
+  }
+  CHECK(accepted > 1900);
+  // A deformed element collapsed to a segment is left to the SVD.
+  const Eigen::Vector3d n(0, 0, 1);
+  Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
+  F(0, 0) = 1.0;
+  Eigen::Matrix3d T = Eigen::Matrix3d::Zero();
+  double trace = 0.0;
+  CHECK_FALSE(tangentRotation(F, n, T, trace));
+}
+
+TEST_CASE("a session without reserved couplings gives the same deformation",
+          "[deformation][session]") {
+  for (MeshKind kind : kAllKinds) {
+    const auto disc = makeBar(kind);
+    const std::vector<int> handles = bothEnds(*disc);
+    Eigen::MatrixXd targets = rows(disc->rest(), handles);
+    for (Eigen::Index i = 0; i < targets.rows(); ++i)
+      if (targets(i, 0) > 2.0) targets(i, 1) += 1.0;
+    DeformationOptions reserved, lean;
+    reserved.maxIterations = lean.maxIterations = 10;
+    lean.reserveRegularization = false;
+    DeformationSession a(*disc, reserved), b(*disc, lean);
+    a.setHandles(handles);
+    b.setHandles(handles);
+    a.setTargets(targets);
+    b.setTargets(targets);
+    INFO(toString(kind));
+    const auto pa = a.solve().positions, pb = b.solve().positions;
+    CHECK((pa - pb).cwiseAbs().maxCoeff() < 1e-9);
+    // The plain energy's pattern is smaller, until the regularizer needs its couplings.
+    a.setRegularization(Regularization::Uniform, 0.5);
+    b.setRegularization(Regularization::Uniform, 0.5);
+    const SolverStats beforeA = a.stats(), beforeB = b.stats();
+    const auto qa = a.solve().positions, qb = b.solve().positions;
+    CHECK((qa - qb).cwiseAbs().maxCoeff() < 1e-9);
+    CHECK((qa - pa).cwiseAbs().maxCoeff() > 1e-3);  // the regularizer did act
+    CHECK((a.stats() - beforeA).symbolic == 0);
+    CHECK((b.stats() - beforeB).symbolic >= 1);
+  }
+}
+
+TEST_CASE("the progress callback sees every iteration's energy", "[deformation][session]") {
+  for (MeshKind kind : kAllKinds)
+    for (Energy energy : kAllEnergies) {
+      const auto disc = makeBar(kind);
+      const std::vector<int> handles = bothEnds(*disc);
+      Eigen::MatrixXd targets = rows(disc->rest(), handles);
+      for (Eigen::Index i = 0; i < targets.rows(); ++i)
+        if (targets(i, 0) > 2.0) targets(i, 1) += 1.0;
+      std::vector<std::pair<int, double>> seen;
+      DeformationOptions o;
+      o.energy = energy;
+      o.maxIterations = 8;
+      o.progress = [&](int iteration, double E) { seen.emplace_back(iteration, E); };
+      const DeformationResult r = deform(*disc, o, handles, targets);
+      INFO(toString(kind) << " " << toString(energy));
+      REQUIRE(static_cast<int>(seen.size()) == r.iterations);
+      for (size_t i = 0; i < seen.size(); ++i) {
+        CHECK(seen[i].first == static_cast<int>(i) + 1);
+        CHECK(seen[i].second == r.energies[r.energies.size() - seen.size() + i]);
+      }
+    }
+}
