@@ -82,6 +82,12 @@ TEST_CASE("diffreg: deformation errors are one line and write nothing", "[cli][d
       {bar + "--filter 'deform regularization=nonuniform' -o out.ply", "diffreg:weight"},
       {bar + "--filter deform --filter 'measure reference=nothere.ply' -o out.ply", "nothere.ply"},
       {bar + "--filter deform -o out.ply -o out.ply", "twice"},
+      // render has written its picture by the time measure fails: it must not stay.
+      {bar + "--filter deform --filter 'render file=pic.png' --filter "
+             "'measure reference=nothere.ply' -o out.ply",
+       "nothere.ply"},
+      {bar + "--filter deform --filter 'render file=out.png' -o out.ply -o out.png", "twice"},
+      {bar + "--filter deform --filter 'render file=nodir/pic.png' -o out.ply", "nodir"},
   };
   for (const auto& [args, needle] : cases) {
     INFO(args);
@@ -91,5 +97,28 @@ TEST_CASE("diffreg: deformation errors are one line and write nothing", "[cli][d
     CHECK(lineCount(r.err) == 1);
     CHECK(r.err.find(needle) != std::string::npos);
     CHECK_FALSE(s.has("out.ply"));
+    CHECK_FALSE(s.has("out.png"));
+    CHECK_FALSE(s.has("pic.png"));
+    CHECK(s.files() == 3);  // the inputs only: no staged leftovers
   }
+}
+
+TEST_CASE("diffreg reports a long deformation's iterations on stderr unless quiet",
+          "[cli][deform]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s("cli-deform");
+  const std::string run = "-i '" + shipped("bar.obj") + "' --handles '" + shipped("bar-bend.json") +
+                          "' --filter 'deform iterations=5 tolerance=0' -o out.ply";
+  // --progress-after 0: every run counts as long; lines are at most one a second.
+  const ToolRun verbose = s.run(run + " --progress-after 0");
+  REQUIRE(verbose.code == 0);
+  INFO(verbose.err);
+  CHECK(verbose.err.find("diffreg: deform: iteration 1, energy ") != std::string::npos);
+  const ToolRun quiet = s.run(run + " --progress-after 0 -q");
+  REQUIRE(quiet.code == 0);
+  CHECK(quiet.err.empty());
+  // A short run under the default threshold of one second prints no iteration.
+  const ToolRun shortRun = s.run(run);
+  REQUIRE(shortRun.code == 0);
+  CHECK(shortRun.err.find("iteration") == std::string::npos);
 }

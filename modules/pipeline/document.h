@@ -5,6 +5,7 @@
 #include "mesh/mesh.h"
 
 #include <Eigen/Core>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -18,6 +19,19 @@ struct Document {
   /// What earlier filters of a pipeline leave for later ones, as "filter.key" -> text (e.g. the
   /// deform filter's energy, read by measure).
   std::map<std::string, std::string> state;
+
+  /// Where a filter writes a file it is asked to write (e.g. render's PNG): maps the requested
+  /// path to the one to write now. Unset: the path itself. The diffreg tool stages such files
+  /// beside their targets, so that a pipeline that fails later leaves none of them behind.
+  std::function<std::string(const std::string& path)> outputFile;
+  /// Progress of a long filter: its name, the iteration (1-based) and the energy after it.
+  /// Unset: no progress is reported. Exceptions thrown here end the filter.
+  std::function<void(const std::string& filter, int iteration, double energy)> progress;
+
+  /// outputFile(path) when set, else `path`.
+  std::string writePath(const std::string& path) const {
+    return outputFile ? outputFile(path) : path;
+  }
 
   /// Reads a mesh (and optionally a handle file) and records the rest positions.
   static Document load(const std::string& meshPath, const std::string& handlesPath = "");

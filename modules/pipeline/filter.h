@@ -32,6 +32,10 @@ class Filter {
   virtual std::vector<std::string> produces(const ParamMap&) const { return {}; }
   /// Whether the filter needs a handle set on the document.
   virtual bool needsHandles() const { return false; }
+  /// Checks that need the document or the file system (e.g. that an output's directory
+  /// exists), run by Pipeline::check before any step does work.
+  /// \throw InvalidParameter / IoError naming the filter and the parameter.
+  virtual void check(const Document&, const ParamMap&) const {}
   virtual FilterResult apply(Document& doc, const ParamMap& params) const = 0;
 };
 

@@ -23,6 +23,7 @@ void Pipeline::check(const Document& doc) const {
     const ParamMap params(filter.name(), filter.params(), steps_[i].values);
     if (filter.needsHandles() && doc.handles.empty())
       throw InvalidParameter("filter " + filter.name() + " needs handles: give --handles");
+    filter.check(doc, params);
     for (const auto& property : filter.requires(params)) {
       if (available.count(property)) continue;
       std::string providers;

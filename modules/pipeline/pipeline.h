@@ -21,7 +21,8 @@ class Pipeline {
   const std::vector<Step>& steps() const { return steps_; }
 
   /// Checks every step before any work: known filters, valid parameters, handles present where
-  /// needed, and each required property produced by the document or an earlier step.
+  /// needed, each filter's own checks (Filter::check), and each required property produced by
+  /// the document or an earlier step.
   /// \throw InvalidParameter / MissingProperty naming the step, the property and the filter
   ///        that would provide it.
   void check(const Document& doc) const;

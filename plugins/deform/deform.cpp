@@ -74,6 +74,10 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
     options.weights = doc.mesh.vertexScalar(prop::weight);
   options.maxIterations = params.getInt("iterations");
   options.relTolerance = params.getFloat("tolerance");
+  if (doc.progress)
+    options.progress = [&doc](int iteration, double energy) {
+      doc.progress("deform", iteration, energy);
+    };
 
   DeformationSession session(disc, options);
   const Edit edit = editOf(doc.handles);

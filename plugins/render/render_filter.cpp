@@ -148,6 +148,10 @@ std::vector<std::string> RenderFilter::requires(const ParamMap& params) const {
   return {name};
 }
 
+void RenderFilter::check(const Document&, const ParamMap& params) const {
+  checkOutput(params.getString("file"));
+}
+
 FilterResult RenderFilter::apply(Document& doc, const ParamMap& params) const {
   const std::string file = params.getString("file");
   checkOutput(file);
@@ -186,7 +190,7 @@ FilterResult RenderFilter::apply(Document& doc, const ParamMap& params) const {
   options.title = params.getString("title");
 
   const Image image = renderMesh(mesh, options);
-  writePng(file, image);
+  writePng(doc.writePath(file), image);
 
   FilterResult result;
   result.data = {{"file", file}, {"property", choice}};

@@ -22,6 +22,8 @@ class RenderFilter : public Filter {
   /// \throw InvalidParameter (file empty or not *.png), MissingProperty (the property is
   ///        absent), IoError (the file's directory does not exist or is not writable, or
   ///        writing failed; no file is left behind).
+  /// The file parameter: given, a .png, in an existing directory.
+  void check(const Document& doc, const ParamMap& params) const override;
   FilterResult apply(Document& doc, const ParamMap& params) const override;
 };
 

@@ -1,12 +1,15 @@
 #include "cli.h"
 
 #include "core/error.h"
+#include "core/log.h"
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
+#include <sstream>
 
 #include <unistd.h>
 
@@ -32,8 +35,21 @@ StagedOutputs::~StagedOutputs() {
   for (const auto& [tmp, path] : staged_) std::remove(tmp.c_str());
 }
 
+void ProgressPrinter::operator()(const std::string& filter, int iteration, double energy) {
+  const double now =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  if (now < after_ || (last_ >= 0.0 && now - last_ < 1.0)) return;
+  last_ = now;
+  std::ostringstream line;
+  line << filter << ": iteration " << iteration << ", energy " << std::setprecision(6) << energy;
+  info(line.str());
+}
+
 std::string StagedOutputs::stage(const std::string& path) {
   const fs::path p(path);
+  for (const auto& [tmp, target] : staged_)
+    if (fs::absolute(target) == fs::absolute(p))
+      throw InvalidParameter("output '" + path + "' is written twice (by -o, --report or a filter)");
   const std::string tmp = (p.parent_path() / ("." + p.stem().string() + ".tmp" +
                                               std::to_string(::getpid()) + p.extension().string()))
                               .string();

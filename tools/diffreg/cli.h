@@ -2,6 +2,7 @@
 // or not at all.
 #pragma once
 
+#include <chrono>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -22,6 +23,20 @@ void checkWritableDir(const std::string& path);
 /// Files written under temporary names beside their targets (same extension, so writers that
 /// pick a format by it still do), renamed into place together by commit(). Whatever was not
 /// committed is removed, so a failed run leaves no new or clobbered file.
+/// Prints a long filter's iterations on stderr (unless quiet): nothing during the first
+/// `after` seconds of the run, then at most one line a second, "diffreg: FILTER: iteration N,
+/// energy E".
+class ProgressPrinter {
+ public:
+  explicit ProgressPrinter(double after) : after_(after) {}
+  void operator()(const std::string& filter, int iteration, double energy);
+
+ private:
+  double after_;
+  double last_ = -1.0;  // when the last line was printed (seconds since construction)
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
 class StagedOutputs {
  public:
   StagedOutputs() = default;
@@ -29,6 +44,7 @@ class StagedOutputs {
   StagedOutputs& operator=(const StagedOutputs&) = delete;
   ~StagedOutputs();
   /// Returns the temporary name to write `path` to.
+  /// \throw InvalidParameter when `path` is already staged (one file written twice).
   std::string stage(const std::string& path);
   /// Writes `text` to `path`'s temporary. \throw IoError when writing fails.
   void stageText(const std::string& path, const std::string& text);

@@ -232,6 +232,7 @@ int runCompare(int argc, char** argv) {
     variants.push_back(rbf);
   }
 
+  ProgressPrinter printer(1.0);
   for (Variant& v : variants) {
     info("compare: " + v.name);
     Pipeline p;
@@ -242,6 +243,9 @@ int runCompare(int argc, char** argv) {
     p.add("deform", values);
     p.add("measure");
     v.result = doc;
+    v.result.progress = [&printer, &v](const std::string& filter, int iteration, double energy) {
+      printer(v.name + " " + filter, iteration, energy);
+    };
     v.report = p.run(v.result);
   }
 

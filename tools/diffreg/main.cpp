@@ -130,9 +130,15 @@ int runPipeline(const po::variables_map& vm) {
   Document doc = Document::load(input, handles);
   for (const auto& output : outputs) checkWritable(output, doc.mesh.kind());
   pipeline.check(doc);
+  // Files the filters write (render's PNG) are staged with the outputs: all or nothing.
+  StagedOutputs staged;
+  doc.outputFile = [&staged](const std::string& path) { return staged.stage(path); };
+  ProgressPrinter printer(vm["progress-after"].as<double>());
+  doc.progress = [&printer](const std::string& filter, int iteration, double energy) {
+    printer(filter, iteration, energy);
+  };
   const nlohmann::json report = pipeline.run(doc);
 
-  StagedOutputs staged;
   for (const auto& output : outputs) writeMesh(staged.stage(output), doc.mesh);
   if (!reportPath.empty()) staged.stageText(reportPath, report.dump(2) + "\n");
   staged.commit();
@@ -156,7 +162,9 @@ int run(int argc, char** argv) {
       ("script,s", po::value<std::string>(),
        "MeshLab .mlx filter script: its filters run first, then any --filter ones")  //
       ("mlx", po::bool_switch(), "with 'filters': print a MeshLab .mlx script instead")  //
-      ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
+      ("quiet,q", po::bool_switch(), "no warnings or progress on stderr")  //
+      ("progress-after", po::value<double>()->default_value(1.0, "1"),
+       "seconds of work before iterations are reported on stderr");
   po::options_description hidden;
   hidden.add_options()("command", po::value<std::vector<std::string>>());
   po::options_description all;
