@@ -10,7 +10,7 @@ namespace diffreg {
 std::string RbfWeightsFilter::description() const {
   return "The RBF baseline for regularization weights: x(v) = sum_j m_j exp(-(d(v, j) / (r_j "
          "sigma))^2), a Gaussian per handle with its range r_j and magnitude m_j, summed over "
-         "the handles (METHOD.md Sec. 5), on the rest shape, stored as the vertex property "
+         "the handles, on the rest shape, stored as the vertex property "
          "diffreg:weight. d is the Euclidean distance or the geodesic distance to the handle's "
          "nearest vertex by the heat method (Crane et al. 2013): CGAL's Heat_method_3 on planar "
          "and surface meshes; on tet meshes, where CGAL's heat method does not apply (it works "
