@@ -13,6 +13,52 @@
 
 namespace diffreg {
 
+namespace {
+
+ParamSpec row(const std::string& name, ParamType type, const std::string& defaultValue,
+              const std::string& help) {
+  ParamSpec spec;
+  spec.name = name;
+  spec.type = type;
+  spec.defaultValue = defaultValue;
+  spec.help = help;
+  return spec;
+}
+
+}  // namespace
+
+ParamSpec floatParam(const std::string& name, const std::string& defaultValue, double min,
+                     double max, const std::string& help) {
+  ParamSpec spec = row(name, ParamType::Float, defaultValue, help);
+  spec.min = min;
+  spec.max = max;
+  return spec;
+}
+
+ParamSpec intParam(const std::string& name, const std::string& defaultValue, double min,
+                   double max, const std::string& help) {
+  ParamSpec spec = row(name, ParamType::Int, defaultValue, help);
+  spec.min = min;
+  spec.max = max;
+  return spec;
+}
+
+ParamSpec boolParam(const std::string& name, bool defaultValue, const std::string& help) {
+  return row(name, ParamType::Bool, defaultValue ? "true" : "false", help);
+}
+
+ParamSpec enumParam(const std::string& name, const std::string& defaultValue,
+                    const std::vector<std::string>& choices, const std::string& help) {
+  ParamSpec spec = row(name, ParamType::Enum, defaultValue, help);
+  spec.choices = choices;
+  return spec;
+}
+
+ParamSpec stringParam(const std::string& name, const std::string& defaultValue,
+                      const std::string& help) {
+  return row(name, ParamType::String, defaultValue, help);
+}
+
 const char* toString(ParamType type) {
   switch (type) {
     case ParamType::Float:

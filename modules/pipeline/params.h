@@ -20,6 +20,17 @@ struct ParamSpec {
   std::string help;
 };
 
+/// Table rows, one per parameter type; defaults are given as the text a user would type.
+ParamSpec floatParam(const std::string& name, const std::string& defaultValue, double min,
+                     double max, const std::string& help);
+ParamSpec intParam(const std::string& name, const std::string& defaultValue, double min,
+                   double max, const std::string& help);
+ParamSpec boolParam(const std::string& name, bool defaultValue, const std::string& help);
+ParamSpec enumParam(const std::string& name, const std::string& defaultValue,
+                    const std::vector<std::string>& choices, const std::string& help);
+ParamSpec stringParam(const std::string& name, const std::string& defaultValue,
+                      const std::string& help);
+
 /// Validated values of one filter invocation, every parameter present (defaults filled in).
 class ParamMap {
  public:

@@ -21,38 +21,18 @@ std::string DeformFilter::description() const {
 }
 
 std::vector<ParamSpec> DeformFilter::params() const {
-  std::vector<ParamSpec> specs(5);
-  specs[0].name = "energy";
-  specs[0].type = ParamType::Enum;
-  specs[0].defaultValue = "arap";
-  specs[0].choices = {"arap", "asap", "larap", "dirichlet"};
-  specs[0].help = "Deformation energy: arap, asap, larap (linearized ARAP) or dirichlet.";
-  specs[1].name = "regularization";
-  specs[1].type = ParamType::Enum;
-  specs[1].defaultValue = "none";
-  specs[1].choices = {"none", "uniform", "nonuniform"};
-  specs[1].help =
-      "none; uniform (one beta everywhere, eq. 2); nonuniform (per-element beta from the "
-      "vertex weights diffreg:weight, eq. 3; run diffuse_weights first).";
-  specs[2].name = "beta";
-  specs[2].type = ParamType::Float;
-  specs[2].defaultValue = "0.5";
-  specs[2].min = 0.0;
-  specs[2].max = 1.0;
-  specs[2].help = "Regularization strength for regularization=uniform.";
-  specs[3].name = "iterations";
-  specs[3].type = ParamType::Int;
-  specs[3].defaultValue = "50";
-  specs[3].min = 1;
-  specs[3].max = 100000;
-  specs[3].help = "Maximum local/global iterations (ARAP, and ASAP on surfaces and solids).";
-  specs[4].name = "tolerance";
-  specs[4].type = ParamType::Float;
-  specs[4].defaultValue = "1e-6";
-  specs[4].min = 0.0;
-  specs[4].max = 1.0;
-  specs[4].help = "Stop when an iteration lowers the energy by less than this fraction.";
-  return specs;
+  return {
+      enumParam("energy", "arap", {"arap", "asap", "larap", "dirichlet"},
+                "Deformation energy: arap, asap, larap (linearized ARAP) or dirichlet."),
+      enumParam("regularization", "none", {"none", "uniform", "nonuniform"},
+                "none; uniform (one beta everywhere, eq. 2); nonuniform (per-element beta from "
+                "the vertex weights diffreg:weight, eq. 3; run diffuse_weights first)."),
+      floatParam("beta", "0.5", 0.0, 1.0, "Regularization strength for regularization=uniform."),
+      intParam("iterations", "50", 1, 100000,
+               "Maximum local/global iterations (ARAP, and ASAP on surfaces and solids)."),
+      floatParam("tolerance", "1e-6", 0.0, 1.0,
+                 "Stop when an iteration lowers the energy by less than this fraction."),
+  };
 }
 
 std::vector<std::string> DeformFilter::requires(const ParamMap& params) const {

@@ -45,24 +45,16 @@ std::string MeasureFilter::description() const {
 }
 
 std::vector<ParamSpec> MeasureFilter::params() const {
-  std::vector<ParamSpec> specs(3);
-  specs[0].name = "energy";
-  specs[0].type = ParamType::Enum;
-  specs[0].defaultValue = "auto";
-  specs[0].choices = {"auto", "arap", "asap", "larap", "dirichlet"};
-  specs[0].help = "Energy whose residuals define D_k; auto: the deform filter's (else arap).";
-  specs[1].name = "reference";
-  specs[1].type = ParamType::String;
-  specs[1].defaultValue = "";
-  specs[1].help =
-      "Mesh file to measure Dist against; empty: the same edit solved without "
-      "regularization.";
-  specs[2].name = "rest";
-  specs[2].type = ParamType::String;
-  specs[2].defaultValue = "";
-  specs[2].help =
-      "Undeformed mesh file, when the input is already deformed; empty: the mesh as loaded.";
-  return specs;
+  return {
+      enumParam("energy", "auto", {"auto", "arap", "asap", "larap", "dirichlet"},
+                "Energy whose residuals define D_k; auto: the deform filter's (else arap)."),
+      stringParam("reference", "",
+                  "Mesh file to measure Dist against; empty: the same edit solved without "
+                  "regularization."),
+      stringParam("rest", "",
+                  "Undeformed mesh file, when the input is already deformed; empty: the mesh as "
+                  "loaded."),
+  };
 }
 
 std::vector<std::string> MeasureFilter::produces(const ParamMap&) const {

@@ -25,20 +25,10 @@ std::string FlipEdgesFilter::description() const {
 }
 
 std::vector<ParamSpec> FlipEdgesFilter::params() const {
-  std::vector<ParamSpec> specs(2);
-  specs[0].name = "fraction";
-  specs[0].type = ParamType::Float;
-  specs[0].defaultValue = "0.3";
-  specs[0].min = 0.0;
-  specs[0].max = 1.0;
-  specs[0].help = "Fraction of the interior edges to flip.";
-  specs[1].name = "seed";
-  specs[1].type = ParamType::Int;
-  specs[1].defaultValue = "1";
-  specs[1].min = 0;
-  specs[1].max = INT_MAX;
-  specs[1].help = "Seed of the random choice of edges (std::mt19937).";
-  return specs;
+  return {
+      floatParam("fraction", "0.3", 0.0, 1.0, "Fraction of the interior edges to flip."),
+      intParam("seed", "1", 0, INT_MAX, "Seed of the random choice of edges (std::mt19937)."),
+  };
 }
 
 FilterResult FlipEdgesFilter::apply(Document& doc, const ParamMap& params) const {

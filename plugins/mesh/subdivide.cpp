@@ -77,28 +77,17 @@ std::string SubdivideFilter::description() const {
 }
 
 std::vector<ParamSpec> SubdivideFilter::params() const {
-  std::vector<ParamSpec> specs(3);
-  specs[0].name = "iterations";
-  specs[0].type = ParamType::Int;
-  specs[0].defaultValue = "1";
-  specs[0].min = 0;
-  specs[0].max = 8;
-  specs[0].help = "Number of 1-to-4 steps (each multiplies the triangle count by 4).";
-  specs[1].name = "scheme";
-  specs[1].type = ParamType::Enum;
-  specs[1].defaultValue = "midpoint";
-  specs[1].choices = {"midpoint", "loop"};
-  specs[1].help =
-      "midpoint (new vertices at edge midpoints, the shape unchanged) or loop (Loop "
-      "subdivision, smoothing; a planar boundary shrinks).";
-  specs[2].name = "handles";
-  specs[2].type = ParamType::Enum;
-  specs[2].defaultValue = "grow";
-  specs[2].choices = {"grow", "keep"};
-  specs[2].help =
-      "grow: a new vertex splitting an edge between two vertices of one handle joins that "
-      "handle (its region keeps its extent); keep: handles keep exactly their vertices.";
-  return specs;
+  return {
+      intParam("iterations", "1", 0, 8,
+               "Number of 1-to-4 steps (each multiplies the triangle count by 4)."),
+      enumParam("scheme", "midpoint", {"midpoint", "loop"},
+                "midpoint (new vertices at edge midpoints, the shape unchanged) or loop (Loop "
+                "subdivision, smoothing; a planar boundary shrinks)."),
+      enumParam("handles", "grow", {"grow", "keep"},
+                "grow: a new vertex splitting an edge between two vertices of one handle joins "
+                "that handle (its region keeps its extent); keep: handles keep exactly their "
+                "vertices."),
+  };
 }
 
 FilterResult SubdivideFilter::apply(Document& doc, const ParamMap& params) const {

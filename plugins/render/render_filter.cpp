@@ -82,64 +82,33 @@ std::string RenderFilter::description() const {
 }
 
 std::vector<ParamSpec> RenderFilter::params() const {
-  std::vector<ParamSpec> specs;
-  auto add = [&](const std::string& name, ParamType type, const std::string& value,
-                 const std::string& help) -> ParamSpec& {
-    ParamSpec spec;
-    spec.name = name;
-    spec.type = type;
-    spec.defaultValue = value;
-    spec.help = help;
-    specs.push_back(spec);
-    return specs.back();
+  return {
+      stringParam("file", "",
+                  "The PNG file to write (required), relative to the working directory."),
+      enumParam("property", "weight", {"weight", "distortion", "smoothness", "none"},
+                "Colour by weight (vertex property diffreg:weight), distortion "
+                "(diffreg:distortion), smoothness (diffreg:smoothness) or none (uniform grey)."),
+      floatParam("scale_max", "0", 0.0, 1e12,
+                 "Top of the colour scale (the bottom is 0); 0 = the largest value shown. Give "
+                 "several pictures the same value to compare them."),
+      enumParam("colormap", "auto", {"auto", "viridis", "turbo", "coolwarm"},
+                "auto (viridis for weights, turbo for distortion and smoothness), viridis, turbo "
+                "or coolwarm."),
+      boolParam("wireframe", false, "Draw the mesh edges."),
+      boolParam("handles", true, "Mark the handle vertices with red dots."),
+      intParam("width", "800", 64, 8192, "Picture width in pixels."),
+      intParam("height", "600", 64, 8192, "Picture height in pixels."),
+      enumParam("view", "auto", {"auto", "top", "orbit"},
+                "auto (top for planar meshes, orbit otherwise), top (the xy plane from +z) or "
+                "orbit (shaded 3D view from yaw and pitch)."),
+      floatParam("yaw", "30", -360.0, 360.0, "Orbit view: degrees turned about the up axis."),
+      floatParam("pitch", "-20", -90.0, 90.0,
+                 "Orbit view: degrees of elevation; negative looks down on the mesh."),
+      enumParam("up", "auto", {"auto", "x", "y", "z"},
+                "Orbit view: the world axis shown vertical; auto = the axis along which the "
+                "handles move most (the longest axis of the shape when they do not move)."),
+      stringParam("title", "", "Text above the picture (none when empty)."),
   };
-  add("file", ParamType::String, "",
-      "The PNG file to write (required), relative to the working directory.");
-  add("property", ParamType::Enum, "weight",
-      "Colour by weight (vertex property diffreg:weight), distortion (diffreg:distortion), "
-      "smoothness (diffreg:smoothness) or none (uniform grey).")
-      .choices = {"weight", "distortion", "smoothness", "none"};
-  {
-    ParamSpec& s = add("scale_max", ParamType::Float, "0",
-                       "Top of the colour scale (the bottom is 0); 0 = the largest value shown. "
-                       "Give several pictures the same value to compare them.");
-    s.min = 0.0;
-    s.max = 1e12;
-  }
-  add("colormap", ParamType::Enum, "auto",
-      "auto (viridis for weights, turbo for distortion and smoothness), viridis, turbo or "
-      "coolwarm.")
-      .choices = {"auto", "viridis", "turbo", "coolwarm"};
-  add("wireframe", ParamType::Bool, "false", "Draw the mesh edges.");
-  add("handles", ParamType::Bool, "true", "Mark the handle vertices with red dots.");
-  {
-    ParamSpec& w = add("width", ParamType::Int, "800", "Picture width in pixels.");
-    w.min = 64;
-    w.max = 8192;
-    ParamSpec& h = add("height", ParamType::Int, "600", "Picture height in pixels.");
-    h.min = 64;
-    h.max = 8192;
-  }
-  add("view", ParamType::Enum, "auto",
-      "auto (top for planar meshes, orbit otherwise), top (the xy plane from +z) or orbit "
-      "(shaded 3D view from yaw and pitch).")
-      .choices = {"auto", "top", "orbit"};
-  {
-    ParamSpec& y =
-        add("yaw", ParamType::Float, "30", "Orbit view: degrees turned about the up axis.");
-    y.min = -360.0;
-    y.max = 360.0;
-    ParamSpec& p = add("pitch", ParamType::Float, "-20",
-                       "Orbit view: degrees of elevation; negative looks down on the mesh.");
-    p.min = -90.0;
-    p.max = 90.0;
-  }
-  add("up", ParamType::Enum, "auto",
-      "Orbit view: the world axis shown vertical; auto = the axis along which the handles move "
-      "most (the longest axis of the shape when they do not move).")
-      .choices = {"auto", "x", "y", "z"};
-  add("title", ParamType::String, "", "Text above the picture (none when empty).");
-  return specs;
 }
 
 std::vector<std::string> RenderFilter::requires(const ParamMap& params) const {

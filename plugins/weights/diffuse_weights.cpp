@@ -21,34 +21,19 @@ std::string DiffuseWeightsFilter::description() const {
 }
 
 std::vector<ParamSpec> DiffuseWeightsFilter::params() const {
-  std::vector<ParamSpec> specs(4);
-  specs[0].name = "t";
-  specs[0].type = ParamType::Float;
-  specs[0].defaultValue = "0.01";
-  specs[0].min = 1e-12;
-  specs[0].max = 1e6;
-  specs[0].help = "Diffusion time, in the unit t_unit; larger t spreads the weights further.";
-  specs[1].name = "t_unit";
-  specs[1].type = ParamType::Enum;
-  specs[1].defaultValue = "diagonal";
-  specs[1].choices = {"absolute", "diagonal", "mean_edge2"};
-  specs[1].help =
-      "Unit of t: absolute (length^2), diagonal (squared bounding-box diagonal; independent of "
-      "scale and nearly of resolution) or mean_edge2 (squared mean edge length, the paper's).";
-  specs[2].name = "order";
-  specs[2].type = ParamType::Enum;
-  specs[2].defaultValue = "second";
-  specs[2].choices = {"first", "second", "implicit_euler"};
-  specs[2].help =
-      "Time discretization: first (eq. 7), second (eq. 8, Dirichlet-consistent) or "
-      "implicit_euler (eq. 6 with `steps` steps, the reference).";
-  specs[3].name = "steps";
-  specs[3].type = ParamType::Int;
-  specs[3].defaultValue = "100";
-  specs[3].min = 1;
-  specs[3].max = 100000;
-  specs[3].help = "Number of implicit Euler steps (order=implicit_euler only).";
-  return specs;
+  return {
+      floatParam("t", "0.01", 1e-12, 1e6,
+                 "Diffusion time, in the unit t_unit; larger t spreads the weights further."),
+      enumParam("t_unit", "diagonal", {"absolute", "diagonal", "mean_edge2"},
+                "Unit of t: absolute (length^2), diagonal (squared bounding-box diagonal; "
+                "independent of scale and nearly of resolution) or mean_edge2 (squared mean edge "
+                "length, the paper's)."),
+      enumParam("order", "second", {"first", "second", "implicit_euler"},
+                "Time discretization: first (eq. 7), second (eq. 8, Dirichlet-consistent) or "
+                "implicit_euler (eq. 6 with `steps` steps, the reference)."),
+      intParam("steps", "100", 1, 100000,
+               "Number of implicit Euler steps (order=implicit_euler only)."),
+  };
 }
 
 std::vector<std::string> DiffuseWeightsFilter::produces(const ParamMap&) const {

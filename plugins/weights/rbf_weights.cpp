@@ -26,34 +26,19 @@ std::string RbfWeightsFilter::description() const {
 }
 
 std::vector<ParamSpec> RbfWeightsFilter::params() const {
-  std::vector<ParamSpec> specs(4);
-  specs[0].name = "distance";
-  specs[0].type = ParamType::Enum;
-  specs[0].defaultValue = "geodesic";
-  specs[0].choices = {"euclidean", "geodesic"};
-  specs[0].help =
-      "Distance to a handle: euclidean (straight line, jumps across gaps) or geodesic (heat "
-      "method: CGAL on triangle meshes, through the volume on tet meshes).";
-  specs[1].name = "sigma";
-  specs[1].type = ParamType::Float;
-  specs[1].defaultValue = "0.1";
-  specs[1].min = 1e-12;
-  specs[1].max = 1e6;
-  specs[1].help =
-      "Gaussian width, in the unit sigma_unit; a handle's range r_j multiplies it. A weight "
-      "falls to 1/e of m_j at distance r_j sigma.";
-  specs[2].name = "sigma_unit";
-  specs[2].type = ParamType::Enum;
-  specs[2].defaultValue = "diagonal";
-  specs[2].choices = {"diagonal", "absolute"};
-  specs[2].help =
-      "Unit of sigma: diagonal (the rest shape's bounding-box diagonal; independent of scale "
-      "and resolution) or absolute (length).";
-  specs[3].name = "clamp";
-  specs[3].type = ParamType::Bool;
-  specs[3].defaultValue = "false";
-  specs[3].help = "Clamp the summed weights to [0, 1] (off: the plain sum, which may exceed 1).";
-  return specs;
+  return {
+      enumParam("distance", "geodesic", {"euclidean", "geodesic"},
+                "Distance to a handle: euclidean (straight line, jumps across gaps) or geodesic "
+                "(heat method: CGAL on triangle meshes, through the volume on tet meshes)."),
+      floatParam("sigma", "0.1", 1e-12, 1e6,
+                 "Gaussian width, in the unit sigma_unit; a handle's range r_j multiplies it. A "
+                 "weight falls to 1/e of m_j at distance r_j sigma."),
+      enumParam("sigma_unit", "diagonal", {"diagonal", "absolute"},
+                "Unit of sigma: diagonal (the rest shape's bounding-box diagonal; independent of "
+                "scale and resolution) or absolute (length)."),
+      boolParam("clamp", false,
+                "Clamp the summed weights to [0, 1] (off: the plain sum, which may exceed 1)."),
+  };
 }
 
 std::vector<std::string> RbfWeightsFilter::produces(const ParamMap&) const {
