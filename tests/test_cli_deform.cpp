@@ -83,11 +83,14 @@ TEST_CASE("diffreg: deformation errors are one line and write nothing", "[cli][d
       {bar + "--filter deform --filter 'measure reference=nothere.ply' -o out.ply", "nothere.ply"},
       {bar + "--filter deform -o out.ply -o out.ply", "twice"},
       // render has written its picture by the time measure fails: it must not stay.
-      {bar + "--filter deform --filter 'render file=pic.png' --filter "
+      {bar + "--filter deform --filter 'render file=pic.png property=distortion' --filter "
              "'measure reference=nothere.ply' -o out.ply",
        "nothere.ply"},
-      {bar + "--filter deform --filter 'render file=out.png' -o out.ply -o out.png", "twice"},
-      {bar + "--filter deform --filter 'render file=nodir/pic.png' -o out.ply", "nodir"},
+      {bar + "--filter deform --filter 'render file=pic.png property=distortion' --filter "
+             "'render file=pic.png property=smoothness' -o out.ply",
+       "twice"},
+      {bar + "--filter deform --filter 'render file=nodir/pic.png property=distortion' -o out.ply",
+       "nodir"},
   };
   for (const auto& [args, needle] : cases) {
     INFO(args);

@@ -15,6 +15,7 @@
 #include "pipeline/mlx.h"
 #include "pipeline/pipeline.h"
 #include "plugins.h"
+#include "resolution.h"
 
 #include <boost/program_options.hpp>
 
@@ -47,6 +48,7 @@ const char* kUsage =
     "       diffreg filters      list every filter with its parameters\n"
     "       diffreg filters --mlx  print a MeshLab .mlx script of every filter at its defaults\n"
     "       diffreg compare ...  none / uniform / non-uniform regularization side by side\n"
+    "       diffreg resolution ...  weights under refinement for each unit of t (paper Fig. 9)\n"
     "       diffreg --help | --version\n"
     "\n"
     "Applies the filters in the order given to the mesh IN and writes OUT; the extension of\n"
@@ -148,6 +150,7 @@ int runPipeline(const po::variables_map& vm) {
 
 int run(int argc, char** argv) {
   if (argc > 1 && std::string(argv[1]) == "compare") return runCompare(argc - 1, argv + 1);
+  if (argc > 1 && std::string(argv[1]) == "resolution") return runResolution(argc - 1, argv + 1);
   po::options_description visible("Options");
   visible.add_options()                                                                        //
       ("help,h", "show this help and the filter names")                                        //
