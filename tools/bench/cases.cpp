@@ -419,6 +419,9 @@ void addPeerCases(std::vector<Case>& cases, const Sizes& sizes) {
       DeformationOptions o;
       o.energy = Energy::Arap;
       o.regularization = Regularization::None;
+      // A plain ARAP session, as a user without regularization makes it: the regularizer's
+      // couplings are not reserved in the factor, so the problem is the one CGAL solves.
+      o.reserveRegularization = false;
       DeformationSession session(disc, o);
       session.setHandles(s.handles);
       const double setup = timer.seconds();
