@@ -11,11 +11,13 @@ what="${1:-demo}"
 
 packages=(build-essential cmake pkg-config libopenmesh-dev libeigen3-dev libcgal-dev catch2
           libboost-program-options-dev libsuitesparse-dev libopenblas0-pthread nlohmann-json3-dev
-          libpng-dev tetgen doxygen)
+          libpng-dev tetgen doxygen libcpp-httplib-dev libjs-three chromium nodejs)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# npm for the browser test (web/test); some Node.js builds bring their own.
+command -v npm >/dev/null 2>&1 || missing+=(npm)
 if [ "${#missing[@]}" -gt 0 ]; then
   echo "setup: installing ${missing[*]}" >&2
   sudo_cmd=""
@@ -32,6 +34,13 @@ cmake --build "$build" -j "$jobs"
 case "$what" in
   build) ;;
   demo) "$here/tools/demo.sh" "$build" ;;
-  test) cd "$build" && ctest --output-on-failure -j "$jobs" ;;
+  test)
+    # playwright-core for the browser test of diffreg serve (web/test), once per lock file.
+    if [ ! -f web/test/node_modules/.package-lock.json ] ||
+       [ web/test/package-lock.json -nt web/test/node_modules/.package-lock.json ]; then
+      (cd web/test && npm ci --no-audit --no-fund --loglevel=error) ||
+        echo "setup: npm ci in web/test failed; the browser test will be skipped" >&2
+    fi
+    cd "$build" && ctest --output-on-failure -j "$jobs" ;;
   *) echo "setup: unknown sub-command '$what' (use demo, test or build)" >&2; exit 2 ;;
 esac

@@ -9,6 +9,7 @@
 
 #include "cli.h"
 #include "compare.h"
+#include "serve.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "mesh/io.h"
@@ -48,6 +49,7 @@ const char* kUsage =
     "       diffreg filters      list every filter with its parameters\n"
     "       diffreg filters --mlx  print a MeshLab .mlx script of every filter at its defaults\n"
     "       diffreg compare ...  none / uniform / non-uniform regularization side by side\n"
+    "       diffreg serve -i MESH [--handles H.json] [--port 8080]  edit in the browser\n"
     "       diffreg resolution ...  weights under refinement for each unit of t (paper Fig. 9)\n"
     "       diffreg --help | --version\n"
     "\n"
@@ -150,6 +152,7 @@ int runPipeline(const po::variables_map& vm) {
 
 int run(int argc, char** argv) {
   if (argc > 1 && std::string(argv[1]) == "compare") return runCompare(argc - 1, argv + 1);
+  if (argc > 1 && std::string(argv[1]) == "serve") return runServe(argc - 1, argv + 1);
   if (argc > 1 && std::string(argv[1]) == "resolution") return runResolution(argc - 1, argv + 1);
   po::options_description visible("Options");
   visible.add_options()                                                                        //

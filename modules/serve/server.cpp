@@ -1,0 +1,157 @@
+#include "serve/server.h"
+
+#include "core/error.h"
+
+#include <httplib.h>
+
+#include <sys/socket.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#ifndef DIFFREG_WEB_DIR
+#define DIFFREG_WEB_DIR ""
+#endif
+#ifndef DIFFREG_INSTALLED_WEB_DIR
+#define DIFFREG_INSTALLED_WEB_DIR ""
+#endif
+
+namespace diffreg {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+bool readFile(const std::string& path, std::string& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  out = buffer.str();
+  return static_cast<bool>(in) || in.eof();
+}
+
+void send(const ApiResponse& a, httplib::Response& res) {
+  res.status = a.status;
+  for (const auto& [key, value] : a.headers) res.set_header(key.c_str(), value);
+  if (!a.filename.empty())
+    res.set_header("Content-Disposition", "attachment; filename=\"" + a.filename + "\"");
+  res.set_header("Cache-Control", "no-store");
+  res.set_content(a.body, a.contentType.c_str());
+}
+
+}  // namespace
+
+std::string defaultWebDir() {
+  for (const std::string& dir :
+       {std::string(DIFFREG_WEB_DIR), std::string(DIFFREG_INSTALLED_WEB_DIR)})
+    if (!dir.empty() && fs::exists(fs::path(dir) / "index.html")) return dir;
+  return DIFFREG_WEB_DIR;
+}
+
+HttpServer::HttpServer(Api& api, ServerOptions options)
+    : api_(api), options_(std::move(options)), server_(std::make_unique<httplib::Server>()) {
+  if (options_.webDir.empty()) options_.webDir = defaultWebDir();
+  if (!fs::exists(fs::path(options_.webDir) / "index.html"))
+    throw IoError("web directory '" + options_.webDir + "' has no index.html");
+
+  httplib::Server& svr = *server_;
+  svr.set_payload_max_length(api_.options().maxBodyBytes);
+  // SO_REUSEADDR only: httplib's default SO_REUSEPORT would let a second server bind a port
+  // that is in use and share its connections.
+  svr.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
+  auto apiHandler = [this](const httplib::Request& req, httplib::Response& res) {
+    ApiRequest a;
+    a.method = req.method;
+    a.path = req.path;
+    for (const auto& [key, value] : req.params) a.query[key] = value;
+    a.body = req.body;
+    send(api_.handle(a), res);
+  };
+  const std::string pattern = R"(/api/.*)";
+  svr.Get(pattern, apiHandler);
+  svr.Post(pattern, apiHandler);
+  svr.Put(pattern, apiHandler);
+  svr.Patch(pattern, apiHandler);
+  svr.Delete(pattern, apiHandler);
+
+  auto file = [this](const std::string& path, const char* type) {
+    return [path, type](const httplib::Request&, httplib::Response& res) {
+      std::string body;
+      if (!readFile(path, body)) {
+        send(errorResponse(404, "cannot read " + path), res);
+        return;
+      }
+      res.set_header("Cache-Control", "no-cache");
+      res.set_content(body, type);
+    };
+  };
+  const fs::path web(options_.webDir);
+  svr.Get("/", file((web / "index.html").string(), "text/html; charset=utf-8"));
+  svr.Get("/index.html", file((web / "index.html").string(), "text/html; charset=utf-8"));
+  svr.Get("/app.js", file((web / "app.js").string(), "text/javascript; charset=utf-8"));
+  svr.Get("/style.css", file((web / "style.css").string(), "text/css; charset=utf-8"));
+  svr.Get("/three/three.module.js", file(options_.threeModule, "text/javascript; charset=utf-8"));
+
+  // Errors httplib answers itself (unknown path, body over the limit): the API's JSON form.
+  const httplib::Server::HandlerWithResponse onError = [](const httplib::Request& req,
+                                                          httplib::Response& res) {
+    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    std::string message = "no such page " + req.path;
+    if (res.status == 413)
+      message = "the request body is larger than the limit";
+    else if (res.status != 404)
+      message = "request failed (HTTP " + std::to_string(res.status) + ")";
+    send(errorResponse(res.status, message), res);
+    return httplib::Server::HandlerResponse::Handled;
+  };
+  svr.set_error_handler(onError);
+  svr.set_exception_handler(
+      [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+        std::string message = "internal error";
+        try {
+          if (ep) std::rethrow_exception(ep);
+        } catch (const std::exception& e) {
+          message = e.what();
+        } catch (...) {
+        }
+        send(errorResponse(500, message), res);
+      });
+}
+
+HttpServer::~HttpServer() { stop(); }
+
+int HttpServer::bind(const std::string& host, int port) {
+  if (port < 0 || port > 65535)
+    throw InvalidParameter("port " + std::to_string(port) + " is outside [0, 65535]");
+  int bound = port;
+  if (port == 0) {
+    bound = server_->bind_to_any_port(host);
+    if (bound <= 0) throw IoError("cannot bind " + host + " to a free port");
+  } else if (!server_->bind_to_port(host, port)) {
+    throw IoError("cannot bind " + host + ":" + std::to_string(port) + " (in use, or not allowed)");
+  }
+  bound_ = true;
+  return bound;
+}
+
+void HttpServer::run() {
+  if (!bound_) throw InvalidParameter("HttpServer::run() needs bind() first");
+  server_->listen_after_bind();
+}
+
+void HttpServer::start() {
+  if (!bound_) throw InvalidParameter("HttpServer::start() needs bind() first");
+  thread_ = std::thread([this] { server_->listen_after_bind(); });
+}
+
+void HttpServer::stop() {
+  if (server_) server_->stop();
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace diffreg

@@ -1,0 +1,471 @@
+#include "serve/session.h"
+
+#include "core/error.h"
+#include "core/timer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <sstream>
+
+namespace diffreg {
+
+const char* toString(WeightScheme scheme) {
+  return scheme == WeightScheme::Diffusion ? "diffusion" : "rbf";
+}
+
+WeightScheme parseWeightScheme(const std::string& name) {
+  if (name == "diffusion") return WeightScheme::Diffusion;
+  if (name == "rbf") return WeightScheme::Rbf;
+  throw InvalidParameter("weight scheme '" + name + "' is not one of: diffusion, rbf");
+}
+
+namespace {
+
+std::string num(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+void checkRange(const std::string& what, double value, double lo, double hi, bool openLow) {
+  const bool low = openLow ? value > lo : value >= lo;
+  if (!std::isfinite(value) || !low || value > hi)
+    throw InvalidParameter(what + " = " + num(value) + " is outside " + (openLow ? "(" : "[") +
+                           num(lo) + ", " + num(hi) + "]");
+}
+
+std::vector<std::vector<int>> vertexSets(const EditState& s) {
+  std::vector<std::vector<int>> sets;
+  for (const EditHandle& h : s.handles) sets.push_back(h.vertices);
+  return sets;
+}
+
+std::vector<int> allVertices(const EditState& s) {
+  std::vector<int> all;
+  for (const EditHandle& h : s.handles) all.insert(all.end(), h.vertices.begin(), h.vertices.end());
+  return all;
+}
+
+Eigen::MatrixXd stackedTargets(const EditState& s) {
+  Eigen::Index rows = 0;
+  for (const EditHandle& h : s.handles) rows += h.targets.rows();
+  Eigen::MatrixXd t(rows, 3);
+  Eigen::Index row = 0;
+  for (const EditHandle& h : s.handles) {
+    t.middleRows(row, h.targets.rows()) = h.targets;
+    row += h.targets.rows();
+  }
+  return t;
+}
+
+bool sameTargets(const EditState& a, const EditState& b) {
+  if (allVertices(a) != allVertices(b)) return false;
+  for (size_t j = 0; j < a.handles.size(); ++j)
+    if (a.handles[j].targets != b.handles[j].targets) return false;
+  return true;
+}
+
+bool sameDiffusion(const DiffusionParams& a, const DiffusionParams& b) {
+  return a.t == b.t && a.unit == b.unit && a.order == b.order && a.steps == b.steps &&
+         a.clip == b.clip;
+}
+
+bool sameRbf(const RbfSettings& a, const RbfSettings& b) {
+  return a.distance == b.distance && a.sigma == b.sigma && a.clamp == b.clamp;
+}
+
+bool sameRangesAndMagnitudes(const EditState& a, const EditState& b) {
+  if (a.handles.size() != b.handles.size()) return false;
+  for (size_t j = 0; j < a.handles.size(); ++j)
+    if (a.handles[j].range != b.handles[j].range ||
+        a.handles[j].magnitude != b.handles[j].magnitude)
+      return false;
+  return true;
+}
+
+/// The costliest phase a counter difference shows.
+std::string workOf(const SolverStats& s) {
+  if (s.symbolic > 0) return "analysis";
+  if (s.numeric > 0) return "numeric";
+  if (s.solves > 0) return "solve";
+  return "none";
+}
+
+}  // namespace
+
+/// The systems and the state each was last brought in line with.
+struct EditSession::Systems {
+  std::unique_ptr<DiffusionWeights> diffusion;
+  std::optional<EditState> diffusionSynced;
+  std::optional<EditState> rbfSynced;
+  long weightsSerial = 0;  // incremented whenever the weights change
+
+  std::unique_ptr<DeformationSession> deform;
+  std::optional<EditState> deformSynced;
+  long deformWeightsSerial = -1;
+
+  std::unique_ptr<DeformationSession> reference;
+  std::optional<EditState> referenceSynced;
+  Eigen::MatrixXd referencePositions;  // n x d
+};
+
+EditSession::EditSession(Mesh mesh, SolverBackend backend)
+    : mesh_(std::move(mesh)),
+      disc_(std::make_unique<Discretization>(mesh_)),
+      backend_(backend),
+      systems_(std::make_unique<Systems>()) {
+  positions_ = mesh_.positions();
+  weights_ = Eigen::VectorXd::Zero(disc_->numVertices());
+  distortion_ = Eigen::VectorXd::Zero(disc_->numElements());
+  smoothness_ = Eigen::VectorXd::Zero(disc_->numElements());
+}
+
+EditSession::~EditSession() = default;
+
+void EditSession::validate(const EditState& s) const {
+  const int n = disc_->numVertices();
+  const std::vector<bool>& active = disc_->active();
+  const Eigen::MatrixXd rest = mesh_.positions();
+  const Eigen::Vector3d center = 0.5 * (rest.colwise().minCoeff() + rest.colwise().maxCoeff());
+  const double reach = 1000.0 * std::max(disc_->boundingBoxDiagonal(), 1e-300);
+  std::vector<int> owner(static_cast<size_t>(n), -1);
+  std::set<int> ids;
+  for (const EditHandle& h : s.handles) {
+    const std::string name =
+        "handle " + std::to_string(h.id) + (h.name.empty() ? std::string() : " ('" + h.name + "')");
+    if (h.id < 0 || h.id >= s.nextId)
+      throw InvalidParameter(name + ": id must be in [0, " + std::to_string(s.nextId) + ")");
+    if (!ids.insert(h.id).second) throw InvalidParameter(name + ": id used twice");
+    if (h.vertices.empty()) throw InvalidParameter(name + " selects no vertex");
+    for (int v : h.vertices) {
+      if (v < 0 || v >= n)
+        throw InvalidParameter(name + ": vertex " + std::to_string(v) +
+                               " does not exist (the mesh has " + std::to_string(n) + " vertices)");
+      if (!active[static_cast<size_t>(v)])
+        throw InvalidParameter(name + ": vertex " + std::to_string(v) + " belongs to no element");
+      int& o = owner[static_cast<size_t>(v)];
+      if (o == h.id)
+        throw InvalidParameter(name + ": vertex " + std::to_string(v) + " is listed twice");
+      if (o >= 0)
+        throw InvalidParameter(name + ": vertex " + std::to_string(v) + " is already in handle " +
+                               std::to_string(o));
+      o = h.id;
+    }
+    if (h.targets.rows() != static_cast<Eigen::Index>(h.vertices.size()) || h.targets.cols() != 3)
+      throw InvalidParameter(name + ": " + std::to_string(h.vertices.size()) +
+                             " vertices need as many targets of 3 coordinates");
+    for (Eigen::Index i = 0; i < h.targets.rows(); ++i) {
+      const Eigen::Vector3d p = h.targets.row(i).transpose();
+      if (!p.allFinite())
+        throw InvalidParameter(name + ": the target of vertex " + std::to_string(h.vertices[i]) +
+                               " is not a finite position");
+      if ((p - center).norm() > reach)
+        throw InvalidParameter(name + ": the target of vertex " + std::to_string(h.vertices[i]) +
+                               " is more than 1000 mesh diagonals away");
+    }
+    checkRange(name + ": range", h.range, 0.0, 1e6, true);
+    checkRange(name + ": magnitude", h.magnitude, 0.0, 1.0, false);
+  }
+  const EditParams& p = s.params;
+  checkRange("beta", p.beta, 0.0, 1.0, false);
+  checkRange("t", p.diffusion.t, 0.0, 1e6, true);
+  if (p.diffusion.steps < 1 || p.diffusion.steps > 100000)
+    throw InvalidParameter("steps = " + std::to_string(p.diffusion.steps) +
+                           " is outside [1, 100000]");
+  checkRange("sigma", p.rbf.sigma, 0.0, 1e6, true);
+  if (p.iterations < 1 || p.iterations > 1000)
+    throw InvalidParameter("iterations = " + std::to_string(p.iterations) +
+                           " is outside [1, 1000]");
+  checkRange("tolerance", p.tolerance, 0.0, 1.0, false);
+}
+
+void EditSession::setState(EditState state) {
+  // Planar meshes: targets live in the mesh's plane.
+  if (mesh_.kind() == MeshKind::Planar) {
+    const Eigen::MatrixXd rest = mesh_.positions();
+    for (EditHandle& h : state.handles)
+      for (Eigen::Index i = 0; i < h.targets.rows() && h.targets.cols() == 3; ++i)
+        if (h.vertices[static_cast<size_t>(i)] >= 0 &&
+            h.vertices[static_cast<size_t>(i)] < rest.rows())
+          h.targets(i, 2) = rest(h.vertices[static_cast<size_t>(i)], 2);
+  }
+  validate(state);
+  state_ = std::move(state);
+  ++version_;
+}
+
+void EditSession::setHandles(const HandleSet& handles) {
+  EditState s = state_;
+  s.handles.clear();
+  for (const Handle& h : handles.handles) {
+    EditHandle e;
+    e.id = s.nextId++;
+    e.name = h.name;
+    e.vertices = h.vertices;
+    e.targets = h.targets;
+    e.range = h.range;
+    e.magnitude = h.magnitude;
+    s.handles.push_back(std::move(e));
+  }
+  setState(std::move(s));
+}
+
+UpdateReport EditSession::update() {
+  UpdateReport report;
+  if (computedVersion_ == version_) {
+    report.solved = last_.solved;
+    report.message = last_.message;
+    return report;
+  }
+  const Timer total;
+  try {
+    compute(state_, report);
+    computed_ = state_;
+  } catch (const std::exception& e) {
+    // Rebuild every system at the next update; keep the previous results.
+    systems_ = std::make_unique<Systems>();
+    computed_.reset();
+    report = UpdateReport{};
+    report.solved = false;
+    report.message = e.what();
+  }
+  computedVersion_ = version_;
+  report.seconds = total.seconds();
+  weightTotals_ += report.weights;
+  deformTotals_ += report.deformation;
+  referenceTotals_ += report.reference;
+  last_ = report;
+  return report;
+}
+
+void EditSession::compute(const EditState& want, UpdateReport& report) {
+  Systems& S = *systems_;
+  const int n = disc_->numVertices();
+  const int d = disc_->dim();
+  const EditParams& p = want.params;
+  const bool hasHandles = !want.handles.empty();
+  const Eigen::MatrixXd rest3 = mesh_.positions();
+
+  // Weights.
+  Timer timer;
+  Eigen::VectorXd weights = weights_;
+  bool weightsChanged = false;
+  if (!hasHandles) {
+    weightsChanged = weights.size() != n || weights.cwiseAbs().maxCoeff() != 0.0;
+    weights = Eigen::VectorXd::Zero(n);
+    S.diffusionSynced.reset();
+    S.rbfSynced.reset();
+  } else if (p.scheme == WeightScheme::Diffusion) {
+    S.rbfSynced.reset();
+    if (!S.diffusion) S.diffusion = std::make_unique<DiffusionWeights>(*disc_, backend_);
+    const SolverStats before = S.diffusion->stats();
+    const std::optional<EditState>& had = S.diffusionSynced;
+    bool dirty = false;
+    if (!had || vertexSets(*had) != vertexSets(want)) {
+      std::vector<double> r, m;
+      for (const EditHandle& h : want.handles) {
+        r.push_back(h.range);
+        m.push_back(h.magnitude);
+      }
+      S.diffusion->setParams(p.diffusion);
+      S.diffusion->setHandles(vertexSets(want), r, m);
+      dirty = true;
+    } else {
+      for (size_t j = 0; j < want.handles.size(); ++j) {
+        const int jj = static_cast<int>(j);
+        if (want.handles[j].range != had->handles[j].range) {
+          S.diffusion->setRange(jj, want.handles[j].range);
+          dirty = true;
+        }
+        if (want.handles[j].magnitude != had->handles[j].magnitude) {
+          S.diffusion->setMagnitude(jj, want.handles[j].magnitude);
+          dirty = true;
+        }
+      }
+      if (!sameDiffusion(had->params.diffusion, p.diffusion)) {
+        S.diffusion->setParams(p.diffusion);
+        dirty = true;
+      }
+    }
+    if (dirty) {
+      weights = S.diffusion->solve();
+      weightsChanged = true;
+    }
+    S.diffusionSynced = want;
+    report.weights = S.diffusion->stats() - before;
+    report.weightsWork = workOf(report.weights);
+  } else {
+    S.diffusionSynced.reset();
+    const std::optional<EditState>& had = S.rbfSynced;
+    if (!had || vertexSets(*had) != vertexSets(want) || !sameRangesAndMagnitudes(*had, want) ||
+        !sameRbf(had->params.rbf, p.rbf)) {
+      const double sigma = rbfSigmaFromDiagonal(mesh_, p.rbf.sigma);
+      weights = rbfWeights(mesh_, toHandleSet(want), sigma, p.rbf.distance, p.rbf.clamp);
+      weightsChanged = true;
+      report.weightsWork = "evaluate";
+    }
+    S.rbfSynced = want;
+  }
+  if (weightsChanged) ++S.weightsSerial;
+  report.weightsSeconds = timer.seconds();
+
+  // Deformation.
+  timer.reset();
+  Eigen::MatrixXd positions = positions_;
+  bool deformed = false;
+  if (!hasHandles) {
+    positions = rest3;
+    deformed = true;
+    S.deform.reset();
+    S.deformSynced.reset();
+    S.reference.reset();
+    S.referenceSynced.reset();
+  } else {
+    const std::optional<EditState>& had = S.deformSynced;
+    const bool fresh = !S.deform || !had || had->params.energy != p.energy;
+    if (fresh) {
+      DeformationOptions options;
+      options.energy = p.energy;
+      options.regularization = p.regularization;
+      options.beta = p.beta;
+      if (p.regularization == Regularization::Nonuniform) options.weights = weights;
+      options.backend = backend_;
+      S.deform = std::make_unique<DeformationSession>(*disc_, options);
+      S.deformWeightsSerial = S.weightsSerial;
+    }
+    const SolverStats before = fresh ? SolverStats{} : S.deform->stats();
+    bool dirty = fresh;
+    if (fresh || allVertices(*had) != allVertices(want)) {
+      S.deform->setHandles(allVertices(want));
+      dirty = true;
+    }
+    if (dirty || !sameTargets(*had, want)) {
+      S.deform->setTargets(stackedTargets(want));
+      dirty = true;
+    }
+    if (!fresh) {
+      const EditParams& q = had->params;
+      const bool regChanged = q.regularization != p.regularization ||
+                              (p.regularization == Regularization::Uniform && q.beta != p.beta) ||
+                              (p.regularization == Regularization::Nonuniform &&
+                               S.deformWeightsSerial != S.weightsSerial);
+      if (regChanged) {
+        S.deform->setRegularization(
+            p.regularization, p.beta,
+            p.regularization == Regularization::Nonuniform ? weights : Eigen::VectorXd());
+        S.deformWeightsSerial = S.weightsSerial;
+        dirty = true;
+      }
+      if (q.iterations != p.iterations || q.tolerance != p.tolerance) dirty = true;
+    }
+    if (dirty) {
+      const DeformationResult result = S.deform->solve(p.iterations, p.tolerance);
+      positions = rest3;
+      positions.leftCols(d) = result.positions;
+      report.iterations = result.iterations;
+      report.converged = result.converged;
+      report.initialGuess = result.initialGuess;
+      deformed = true;
+    } else {
+      report.iterations = last_.iterations;
+      report.converged = last_.converged;
+      report.initialGuess = last_.initialGuess;
+    }
+    S.deformSynced = want;
+    report.deformation = S.deform->stats() - before;
+    report.deformationWork = workOf(report.deformation);
+  }
+  report.deformationSeconds = timer.seconds();
+
+  // The same edit without regularization, for Dist.
+  timer.reset();
+  const bool wantReference = hasHandles && p.reference && p.regularization != Regularization::None;
+  bool referenceChanged = false;
+  if (wantReference) {
+    const std::optional<EditState>& had = S.referenceSynced;
+    const bool fresh = !S.reference || !had || had->params.energy != p.energy;
+    if (fresh) {
+      DeformationOptions options;
+      options.energy = p.energy;
+      options.regularization = Regularization::None;
+      options.reserveRegularization = false;  // never regularized: the smaller pattern
+      options.backend = backend_;
+      S.reference = std::make_unique<DeformationSession>(*disc_, options);
+    }
+    const SolverStats before = fresh ? SolverStats{} : S.reference->stats();
+    bool dirty = fresh;
+    if (fresh || allVertices(*had) != allVertices(want)) {
+      S.reference->setHandles(allVertices(want));
+      dirty = true;
+    }
+    if (dirty || !sameTargets(*had, want)) {
+      S.reference->setTargets(stackedTargets(want));
+      dirty = true;
+    }
+    if (!fresh && (had->params.iterations != p.iterations || had->params.tolerance != p.tolerance))
+      dirty = true;
+    if (dirty) {
+      S.referencePositions = S.reference->solve(p.iterations, p.tolerance).positions;
+      referenceChanged = true;
+    }
+    S.referenceSynced = want;
+    report.reference = S.reference->stats() - before;
+    report.referenceWork = workOf(report.reference);
+  } else {
+    S.referenceSynced.reset();  // targets may move meanwhile: resynchronize when needed again
+  }
+  report.referenceSeconds = timer.seconds();
+
+  // Per-element maps and the Table-1 metrics.
+  timer.reset();
+  const bool paramsChanged = !computed_ || computed_->params.energy != p.energy ||
+                             computed_->params.regularization != p.regularization ||
+                             computed_->params.beta != p.beta ||
+                             computed_->params.reference != p.reference;
+  if (deformed || weightsChanged || referenceChanged || paramsChanged) {
+    const Eigen::MatrixXd X = positions.leftCols(d);
+    const RegularizationWeights regWeights =
+        hasHandles
+            ? S.deform->regularizationWeights()
+            : makeRegularizationWeights(*disc_, p.regularization, p.beta, Eigen::VectorXd::Zero(n));
+    const Eigen::MatrixXd* reference = nullptr;
+    if (p.reference) reference = wantReference ? &S.referencePositions : &X;
+    DeformationMetrics metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference);
+    Eigen::VectorXd distortion = elementDistortion(*disc_, p.energy, X);
+    Eigen::VectorXd smoothness = elementSmoothness(*disc_, facetSmoothness(*disc_, p.energy, X));
+    metrics_ = metrics;
+    distortion_ = std::move(distortion);
+    smoothness_ = std::move(smoothness);
+  }
+  report.metricsSeconds = timer.seconds();
+  positions_ = positions;
+  weights_ = weights;
+}
+
+HandleSet EditSession::handleSet() const { return toHandleSet(state_); }
+
+HandleSet toHandleSet(const EditState& state) {
+  HandleSet set;
+  for (const EditHandle& e : state.handles) {
+    Handle h;
+    h.name = e.name.empty() ? "handle-" + std::to_string(e.id) : e.name;
+    h.vertices = e.vertices;
+    h.targets = e.targets;
+    h.range = e.range;
+    h.magnitude = e.magnitude;
+    set.handles.push_back(std::move(h));
+  }
+  return set;
+}
+
+Mesh EditSession::resultMesh() const {
+  Mesh out = mesh_;
+  out.setPositions(positions_);
+  out.setVertexScalar(prop::weight, weights_);
+  out.setElementScalar(prop::distortion, distortion_);
+  out.setElementScalar(prop::smoothness, smoothness_);
+  return out;
+}
+
+}  // namespace diffreg

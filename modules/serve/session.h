@@ -1,0 +1,175 @@
+// An interactive editing session (the paper's Fig. 5): one mesh, its handles and the editing
+// parameters, with the regularization weights and the deformation kept up to date at the least
+// cost. Edits only describe the wanted state (cheap, validated); update() then brings the weights
+// and the deformation in line with it, and reuses every factorization it can:
+//   handles added or removed (vertex sets changed), energy changed -> symbolic analysis
+//   t, order, r_j, beta, weights field, regularization mode changed -> numeric factorization
+//   a handle moved (targets), m_j changed (for the weights)        -> right-hand side only
+// Several edits between two updates cost one update (coalescing).
+#pragma once
+
+#include "deformation/deformer.h"
+#include "deformation/metrics.h"
+#include "discretization/discretization.h"
+#include "handles/handles.h"
+#include "mesh/mesh.h"
+#include "solver/solver.h"
+#include "weights/diffusion.h"
+#include "weights/rbf.h"
+
+#include <Eigen/Core>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace diffreg {
+
+/// How the regularization weights are made.
+enum class WeightScheme {
+  Diffusion,  ///< heat diffusion from the handles (weights/diffusion.h)
+  Rbf,        ///< Gaussian RBF per handle (weights/rbf.h), the paper's baseline
+};
+const char* toString(WeightScheme scheme);
+/// "diffusion" or "rbf". \throw InvalidParameter for any other name, listing the valid ones.
+WeightScheme parseWeightScheme(const std::string& name);
+
+struct RbfSettings {
+  RbfDistance distance = RbfDistance::Geodesic;
+  double sigma = 0.1;  ///< kernel width as a fraction of the bounding-box diagonal
+  /// Clamp to [0, 1]: unclamped RBF sums may exceed 1 between nearby handles, and such weights
+  /// cannot serve as beta for the non-uniform regularization.
+  bool clamp = true;
+};
+
+/// Everything about an edit that is not a handle.
+struct EditParams {
+  Energy energy = Energy::Arap;
+  Regularization regularization = Regularization::Nonuniform;
+  double beta = 0.5;  ///< uniform regularization only
+  WeightScheme scheme = WeightScheme::Diffusion;
+  DiffusionParams diffusion;
+  RbfSettings rbf;
+  int iterations = 50;      ///< local/global iterations (ARAP; ASAP on surfaces and solids)
+  double tolerance = 1e-6;  ///< relative energy decrease that stops the iterations
+  /// Also solve the edit without regularization, for the Dist metric (paper Table 1).
+  bool reference = true;
+};
+
+/// One handle: constrained vertices, their target positions, and its range r_j and magnitude
+/// m_j for the weights.
+struct EditHandle {
+  int id = 0;  ///< stable identifier, never reused within a session
+  std::string name;
+  std::vector<int> vertices;
+  Eigen::MatrixXd targets;  ///< |vertices| x 3 (planar meshes: z = rest z)
+  double range = 1.0;       ///< r_j > 0
+  double magnitude = 1.0;   ///< m_j in [0, 1]
+};
+
+struct EditState {
+  std::vector<EditHandle> handles;
+  EditParams params;
+  int nextId = 0;  ///< id of the next handle added
+};
+
+/// What one update() did.
+struct UpdateReport {
+  /// Per system, the costliest phase run: "none", "solve" (right-hand side only), "numeric"
+  /// (numeric factorization) or "analysis" (symbolic analysis and factorization).
+  std::string weightsWork = "none", deformationWork = "none", referenceWork = "none";
+  SolverStats weights, deformation, reference;  ///< counters of this update only
+  double weightsSeconds = 0.0, deformationSeconds = 0.0, referenceSeconds = 0.0;
+  double metricsSeconds = 0.0, seconds = 0.0;
+  int iterations = 0;  ///< global steps of the deformation
+  bool converged = true;
+  std::string initialGuess;
+  /// False when the weights or the deformation could not be computed for this state (e.g. a
+  /// component without handles, or weights outside [0, 1]); `message` says why. The previous
+  /// results are kept.
+  bool solved = true;
+  std::string message;
+};
+
+/// The handles of a state as a HandleSet (unnamed handles are called handle-<id>).
+HandleSet toHandleSet(const EditState& state);
+
+class EditSession {
+ public:
+  /// Takes the rest mesh.
+  /// \throw InvalidMesh for a mesh the discretization rejects (degenerate elements).
+  explicit EditSession(Mesh mesh, SolverBackend backend = defaultSolverBackend());
+  ~EditSession();
+  EditSession(const EditSession&) = delete;
+  EditSession& operator=(const EditSession&) = delete;
+
+  const Mesh& restMesh() const { return mesh_; }
+  const Discretization& discretization() const { return *disc_; }
+  int numVertices() const { return disc_->numVertices(); }
+
+  /// The wanted state: the last one accepted by setState().
+  const EditState& state() const { return state_; }
+  /// Checks a state against the mesh: handle ids unique and below nextId, vertex ids in range,
+  /// referenced and in one handle only, targets |vertices| x 3 and finite and within 1000
+  /// bounding-box diagonals of the mesh, r_j in (0, 1e6], m_j in [0, 1], parameters in their
+  /// ranges (t in (0, 1e6], steps in [1, 1e5], beta in [0, 1], iterations in [1, 1000],
+  /// tolerance in [0, 1], sigma in (0, 1e6]).
+  /// \throw InvalidParameter naming the handle, vertex or parameter at fault.
+  void validate(const EditState& state) const;
+  /// Validates and records the wanted state; the results follow at the next update().
+  /// \throw InvalidParameter as validate(); the session is then unchanged.
+  void setState(EditState state);
+  /// Handles from a handle file's HandleSet (new ids), keeping the parameters.
+  /// \throw InvalidParameter as validate().
+  void setHandles(const HandleSet& handles);
+  /// Increases with every accepted setState().
+  long version() const { return version_; }
+  /// The version the results belong to (equal to version() after update()).
+  long computedVersion() const { return computedVersion_; }
+
+  /// Recomputes what the edits since the last update require, and only that. Never throws
+  /// for a state that validate() accepted: failures are reported (solved = false) and the
+  /// previous results are kept.
+  UpdateReport update();
+  const UpdateReport& lastUpdate() const { return last_; }
+
+  /// Current positions, n x 3 (the rest shape before any deformation or without handles).
+  const Eigen::MatrixXd& positions() const { return positions_; }
+  /// Regularization weights per vertex (zeros without handles).
+  const Eigen::VectorXd& weights() const { return weights_; }
+  /// D_k and the largest ||e_k - e_l||^2 over each element's facets, per element.
+  const Eigen::VectorXd& distortion() const { return distortion_; }
+  const Eigen::VectorXd& smoothness() const { return smoothness_; }
+  /// Table-1 metrics of the current deformation (dist: against the unregularized edit when
+  /// params.reference, 0 without regularization).
+  const DeformationMetrics& metrics() const { return metrics_; }
+  /// Counters summed over the session's life, per system (systems rebuilt for a new energy
+  /// or weight scheme keep adding to the same totals).
+  const SolverStats& weightStats() const { return weightTotals_; }
+  const SolverStats& deformationStats() const { return deformTotals_; }
+  const SolverStats& referenceStats() const { return referenceTotals_; }
+
+  /// The handles as a HandleSet (for handlesToJson).
+  HandleSet handleSet() const;
+  /// The deformed mesh with diffreg:weight, diffreg:distortion and diffreg:smoothness.
+  Mesh resultMesh() const;
+
+ private:
+  struct Systems;
+  void compute(const EditState& want, UpdateReport& report);
+
+  Mesh mesh_;
+  std::unique_ptr<Discretization> disc_;
+  SolverBackend backend_;
+  EditState state_;
+  std::optional<EditState> computed_;  // the state the systems and results belong to
+  std::unique_ptr<Systems> systems_;
+  long version_ = 0, computedVersion_ = -1;
+  UpdateReport last_;
+  Eigen::MatrixXd positions_;
+  Eigen::VectorXd weights_, distortion_, smoothness_;
+  DeformationMetrics metrics_;
+  SolverStats weightTotals_, deformTotals_, referenceTotals_;
+};
+
+}  // namespace diffreg

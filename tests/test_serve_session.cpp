@@ -1,0 +1,148 @@
+// The editing session behind `diffreg serve` (no HTTP): each edit costs what the paper's
+// Fig. 5 says and no more, invalid states are refused without a trace, and every mesh kind
+// deforms.
+#include "core/error.h"
+#include "mesh/io.h"
+#include "serve/session.h"
+
+#include <catch2/catch.hpp>
+
+#include <string>
+
+using namespace diffreg;
+
+namespace {
+
+Mesh shipped(const std::string& name) {
+  return readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name);
+}
+
+EditHandle handle(const EditSession& s, EditState& state, std::vector<int> vertices) {
+  EditHandle h;
+  h.id = state.nextId++;
+  h.vertices = std::move(vertices);
+  h.targets.resize(static_cast<Eigen::Index>(h.vertices.size()), 3);
+  for (size_t i = 0; i < h.vertices.size(); ++i)
+    h.targets.row(static_cast<Eigen::Index>(i)) = s.positions().row(h.vertices[i]);
+  return h;
+}
+
+}  // namespace
+
+TEST_CASE("serve session: each edit costs only what it must", "[serve]") {
+  EditSession s(shipped("bar.obj"));
+  EditState state = s.state();
+  state.handles.push_back(handle(s, state, {0, 33, 66, 99, 132}));
+  state.handles.push_back(handle(s, state, {32, 65, 98, 131, 164}));
+  s.setState(state);
+  UpdateReport u = s.update();
+  REQUIRE(u.solved);
+  CHECK(u.weightsWork == "analysis");
+  CHECK(u.deformationWork == "analysis");
+  CHECK(s.computedVersion() == s.version());
+
+  // Nothing changed: nothing to do.
+  u = s.update();
+  CHECK(u.weights.solves + u.deformation.solves + u.reference.solves == 0);
+
+  // m_j: the weights need a new right-hand side only; the deformation a new factorization
+  // (its regularization weights changed).
+  state = s.state();
+  state.handles[1].magnitude = 0.5;
+  s.setState(state);
+  u = s.update();
+  CHECK(u.weightsWork == "solve");
+  CHECK(u.deformationWork == "numeric");
+  CHECK(s.weights()[98] == Approx(0.5));
+  CHECK(u.referenceWork == "none");  // the unregularized edit did not change
+
+  // Targets: solves only, and the handle vertices reach them.
+  state = s.state();
+  state.handles[1].targets.col(1).array() += 1.0;
+  s.setState(state);
+  u = s.update();
+  CHECK(u.weightsWork == "none");
+  CHECK(u.deformationWork == "solve");
+  CHECK(u.referenceWork == "solve");
+  CHECK(s.positions()(98, 1) == Approx(1.5));
+  CHECK(s.metrics().dist.has_value());
+  CHECK(*s.metrics().dist > 0.0);
+
+  // The mesh written out carries the three properties.
+  const Mesh out = s.resultMesh();
+  CHECK(out.hasVertexScalar(prop::weight));
+  CHECK(out.hasElementScalar(prop::distortion));
+  CHECK(out.hasElementScalar(prop::smoothness));
+}
+
+TEST_CASE("serve session: invalid states are refused and leave the session unchanged", "[serve]") {
+  EditSession s(shipped("bar.obj"));
+  EditState state = s.state();
+  state.handles.push_back(handle(s, state, {0, 33}));
+  s.setState(state);
+  s.update();
+  const long version = s.version();
+
+  auto refused = [&](EditState bad) {
+    CHECK_THROWS_AS(s.setState(std::move(bad)), InvalidParameter);
+    CHECK(s.version() == version);
+    CHECK(s.state().handles.size() == 1);
+  };
+  EditState bad = s.state();
+  bad.handles[0].vertices.push_back(5000);
+  bad.handles[0].targets.conservativeResize(3, 3);
+  bad.handles[0].targets.row(2).setZero();
+  refused(bad);
+  bad = s.state();
+  bad.handles[0].targets(0, 0) = std::nan("");
+  refused(bad);
+  bad = s.state();
+  bad.handles[0].range = 0.0;
+  refused(bad);
+  bad = s.state();
+  bad.handles[0].magnitude = 1.5;
+  refused(bad);
+  bad = s.state();
+  bad.params.beta = -0.1;
+  refused(bad);
+  bad = s.state();
+  bad.params.diffusion.t = 0.0;
+  refused(bad);
+  bad = s.state();
+  bad.params.iterations = 0;
+  refused(bad);
+  bad = s.state();
+  bad.handles.push_back(handle(s, bad, {33}));  // already in handle 0
+  refused(bad);
+}
+
+TEST_CASE("serve session: surfaces and tet meshes deform with every energy", "[serve]") {
+  for (const char* name : {"cylinder.obj", "tetbar.mesh"}) {
+    INFO(name);
+    EditSession s(shipped(name));
+    const Eigen::MatrixXd rest = s.positions();
+    // The vertices at the lowest and the highest end of the longest axis.
+    Eigen::Index axis = 0;
+    (rest.colwise().maxCoeff() - rest.colwise().minCoeff()).maxCoeff(&axis);
+    const double lo = rest.col(axis).minCoeff(), hi = rest.col(axis).maxCoeff();
+    std::vector<int> low, high;
+    for (int v = 0; v < s.numVertices(); ++v) {
+      if (rest(v, axis) < lo + 1e-9) low.push_back(v);
+      if (rest(v, axis) > hi - 1e-9) high.push_back(v);
+    }
+    EditState state = s.state();
+    state.handles.push_back(handle(s, state, low));
+    state.handles.push_back(handle(s, state, high));
+    const Eigen::Index side = (axis + 1) % 3;
+    state.handles[1].targets.col(side).array() += 0.25 * (hi - lo);
+    for (Energy energy : {Energy::Arap, Energy::Asap, Energy::Larap, Energy::Dirichlet}) {
+      state.params.energy = energy;
+      s.setState(state);
+      const UpdateReport u = s.update();
+      INFO(toString(energy) << ": " << u.message);
+      CHECK(u.solved);
+      CHECK(s.positions().allFinite());
+      CHECK(s.positions()(high[0], side) == Approx(rest(high[0], side) + 0.25 * (hi - lo)));
+    }
+  }
+}

@@ -1,0 +1,87 @@
+#include "serve.h"
+
+#include "cli.h"
+#include "core/error.h"
+#include "core/log.h"
+#include "handles/handles.h"
+#include "mesh/io.h"
+#include "serve/api.h"
+#include "serve/server.h"
+
+#include <boost/program_options.hpp>
+
+#include <csignal>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+
+namespace po = boost::program_options;
+
+namespace diffreg {
+
+namespace {
+
+const char* kServeUsage =
+    "Usage: diffreg serve -i MESH [--handles H.json] [--port 8080] [--quiet]\n"
+    "\n"
+    "Serves an interactive editor for MESH on http://127.0.0.1:PORT/ (loopback only; port 0\n"
+    "picks a free port). Click vertices to make handles (shift-click adds to the current one),\n"
+    "drag them, tune the energy, the regularization and the weights, and save the handles, the\n"
+    "deformed mesh and a picture. The page's JSON API can be driven by scripts as well.\n"
+    "Stops on Ctrl-C (SIGINT) or SIGTERM.\n";
+
+}  // namespace
+
+int runServe(int argc, char** argv) {
+  po::options_description visible("Options");
+  visible.add_options()                                                                  //
+      ("help,h", "show this help")                                                       //
+      ("input,i", po::value<std::string>(), "mesh (obj, off, ply, om, mesh, node/ele)")  //
+      ("handles", po::value<std::string>(), "initial handles (JSON handle file)")        //
+      ("port,p", po::value<int>()->default_value(8080),
+       "TCP port on 127.0.0.1; 0 = any free port")                                            //
+      ("web", po::value<std::string>(), "directory of the page (default: the built-in one)")  //
+      ("quiet,q", po::bool_switch(), "no warnings on stderr");
+  po::variables_map vm;
+  po::store(po::command_line_parser(argc, argv).options(visible).run(), vm);
+  po::notify(vm);
+  if (vm.count("help")) {
+    std::cout << kServeUsage << "\n" << visible;
+    return 0;
+  }
+  if (vm["quiet"].as<bool>()) setQuiet(true);
+  if (!vm.count("input")) throw UsageError("serve: missing -i MESH (see diffreg serve --help)");
+  const int port = vm["port"].as<int>();
+  if (port < 0 || port > 65535)
+    throw UsageError("serve: --port " + std::to_string(port) + " is outside [0, 65535]");
+
+  const std::string input = vm["input"].as<std::string>();
+  Mesh mesh = readMesh(input);
+  HandleSet handles;
+  if (vm.count("handles")) handles = readHandles(vm["handles"].as<std::string>(), mesh);
+  auto session = std::make_unique<EditSession>(std::move(mesh));
+  if (!handles.empty()) session->setHandles(handles);
+  Api api(std::move(session), std::filesystem::path(input).filename().string());
+
+  ServerOptions options;
+  if (vm.count("web")) options.webDir = vm["web"].as<std::string>();
+  HttpServer server(api, options);
+  const int bound = server.bind("127.0.0.1", port);
+
+  // SIGINT and SIGTERM are taken by this thread (sigwait), the server's threads never see them.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  server.start();
+  std::cout << "diffreg serve: http://127.0.0.1:" << bound << "/" << std::endl;
+  int received = 0;
+  sigwait(&signals, &received);
+  server.stop();
+  info("serve: stopped");
+  return 0;
+}
+
+}  // namespace diffreg
