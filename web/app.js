@@ -524,6 +524,7 @@ function renderParams() {
   $('beta-out').textContent = p.beta.toFixed(2);
   $('beta-row').hidden = p.regularization !== 'uniform';
   set('iterations', p.iterations);
+  $('reference').checked = p.reference;
   set('scheme', p.scheme === 'rbf' ? 'rbf' : 'diffusion:' + p.order);
   set('t', Math.log10(p.t));
   $('t-out').textContent = fmt(p.t);
@@ -615,6 +616,7 @@ function wirePanel() {
   param('regularization', (v) => ({ regularization: v }));
   param('beta', (v) => { $('beta-out').textContent = Number(v).toFixed(2); return { beta: Number(v) }; });
   param('iterations', (v) => ({ iterations: Math.round(Number(v)) }));
+  $('reference').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { reference: $('reference').checked }));
   param('t', (v) => { $('t-out').textContent = fmt(10 ** Number(v)); return { t: 10 ** Number(v) }; });
   param('sigma', (v) => ({ sigma: Number(v) }));
   param('scheme', (v) => (v === 'rbf' ? { scheme: 'rbf' } : { scheme: 'diffusion', order: v.split(':')[1] }));
