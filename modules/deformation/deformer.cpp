@@ -63,6 +63,8 @@ void DeformationSession::setRegularization(Regularization mode, double beta,
   options_.beta = beta;
   options_.weights = weights;
   system_.setWeights(w);
+  restRhs_.resize(0, 0);  // C depends on the weights
+  initRhs_.resize(0, 0);
   if (initSystem_) initSystem_->setWeights(w);
 }
 
@@ -96,10 +98,18 @@ DeformationResult DeformationSession::solve(int maxIterations, double relToleran
     if (options_.progress) options_.progress(iteration, E);
   };
 
+  // The rest targets and their right-hand side change only with the weights: every handle move
+  // starts from them (the first global step of the iterative energies, the only one of the
+  // linear energies).
+  auto restSolve = [&]() {
+    if (restTargets_.size() == 0) model_.targets(disc_.rest(), restTargets_);
+    if (restRhs_.size() == 0) system_.rightHandSide(restTargets_, restRhs_);
+    return system_.solveRightHandSide(restRhs_, targets_);
+  };
+
   DeformationResult result;
   if (!model_.iterative()) {
-    if (restTargets_.size() == 0) model_.targets(disc_.rest(), restTargets_);  // constant
-    result.positions = system_.solve(restTargets_, targets_);
+    result.positions = restSolve();
     result.energies.push_back(energyAt(result.positions));
     result.iterations = 1;
     report(1, result.energies.back());
@@ -112,19 +122,21 @@ DeformationResult DeformationSession::solve(int maxIterations, double relToleran
   const Eigen::MatrixXd* t = &t_;
   double E = std::numeric_limits<double>::infinity();
   if (initSystem_ && initSystem_->singularity().empty()) {
-    Eigen::MatrixXd t0;
-    initModel_->targets(disc_.rest(), t0);
-    X = initSystem_->solve(t0, targets_);
+    if (initRhs_.size() == 0) {
+      Eigen::MatrixXd t0;
+      initModel_->targets(disc_.rest(), t0);  // constant: ASAP is linear in 2D
+      initSystem_->rightHandSide(t0, initRhs_);
+    }
+    X = initSystem_->solveRightHandSide(initRhs_, targets_);
     result.initialGuess = "asap";
     E = energyAt(X);  // also fits t_ to X
     result.energies.push_back(E);
   } else {
-    if (restTargets_.size() == 0) model_.targets(disc_.rest(), restTargets_);
-    t = &restTargets_;
+    t = nullptr;  // the first global step is the rest solve
   }
   result.converged = false;
   for (int it = 0; it < maxIterations; ++it) {
-    X = system_.solve(*t, targets_);
+    X = t ? system_.solve(*t, targets_) : restSolve();
     t = &t_;
     const double previous = E;
     E = energyAt(X);

@@ -93,8 +93,10 @@ class DeformationSession {
   std::unique_ptr<RegularizedSystem> initSystem_;
   std::vector<int> handles_;
   Eigen::MatrixXd targets_;
-  Eigen::MatrixXd t_, e_;  // targets and residuals, reused across iterations
+  Eigen::MatrixXd t_, e_;        // targets and residuals, reused across iterations
   Eigen::MatrixXd restTargets_;  // targets fitted to the rest shape (first local step), cached
+  Eigen::MatrixXd restRhs_;      // C restTargets_ for the current weights (empty: not yet)
+  Eigen::MatrixXd initRhs_;      // the same for the ASAP initial guess's system
 };
 
 /// One-shot: deforms `disc` with the handle vertices moved to `targets`.

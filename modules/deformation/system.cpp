@@ -12,6 +12,7 @@ namespace diffreg {
 namespace {
 
 constexpr int kGrain = 2048;  // elements or unknowns per parallel chunk
+constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
 
 }  // namespace
 
@@ -40,6 +41,16 @@ void RegularizedSystem::setWeights(const RegularizationWeights& weights) {
     facetWeight_(static_cast<Eigen::Index>(f)) = w;
     if (w != 0.0) hasFacetWeights_ = true;
   }
+  // Per element, its facets' other elements and weights, in elementFacets_ order (for the
+  // right-hand side with facet weights).
+  neighbour_.resize(hasFacetWeights_ ? elementFacets_.size() : 0);
+  neighbourWeight_.resize(neighbour_.size());
+  for (int k = 0; hasFacetWeights_ && k < disc.numElements(); ++k)
+    for (int g = facetStart_[k]; g < facetStart_[k + 1]; ++g) {
+      const int f = elementFacets_[g];
+      neighbour_[g] = facets[f].k == k ? facets[f].l : facets[f].k;
+      neighbourWeight_[g] = facetWeight_(f);
+    }
   const bool couplings = reserveCouplings_ || hasFacetWeights_ || couplings_;
   if (A_.rows() == 0 || couplings != couplings_) buildPattern(couplings);
   assemble();
@@ -183,51 +194,72 @@ void RegularizedSystem::assemble() {
 }
 
 void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd& b) const {
-  const Discretization& disc = model_.discretization();
-  const auto& facets = disc.facets();
-  const int m = disc.numElements(), r = model_.rows(), c = model_.columns();
-  const int N = model_.numUnknowns();
+  const int m = model_.discretization().numElements(), r = model_.rows(), c = model_.columns();
+  const int u = model_.localSize(), N = model_.numUnknowns();
   const Eigen::Index mr = static_cast<Eigen::Index>(m) * r;
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
-  // tau_k = w_k t_k + sum_(facets kl) w_kl (t_k - t_l); without facet weights tau_k = w_k t_k
-  // and the gather below applies w_k itself.
-  const Eigen::MatrixXd* tau = &t;
-  if (hasFacetWeights_) {
-    if (tau_.rows() != mr || tau_.cols() != c) tau_.resize(mr, c);
-    parallel::forChunks(m, kGrain, [&](int, int begin, int end) {
-      for (int k = begin; k < end; ++k) {
-        const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
-        for (int col = 0; col < c; ++col)
-          for (int a = 0; a < r; ++a) {
-            const double tk = t(row + a, col);
-            double sum = elementWeight_(k) * tk;
-            for (int g = facetStart_[k]; g < facetStart_[k + 1]; ++g) {
-              const int f = elementFacets_[g];
-              const int other = facets[f].k == k ? facets[f].l : facets[f].k;
-              sum += facetWeight_(f) * (tk - t(static_cast<Eigen::Index>(other) * r + a, col));
-            }
-            tau_(row + a, col) = sum;
+  const double* L = model_.locals().data();
+  if (!hasFacetWeights_) {
+    // tau_k = w_k t_k: one gather per unknown over its (element, local unknown) pairs.
+    parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
+      double acc[kMaxBlock];
+      for (int p = begin; p < end; ++p) {
+        for (int col = 0; col < c; ++col) acc[col] = 0.0;
+        for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
+          const int k = incidenceElement_[at], j = incidenceLocal_[at];
+          const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
+          const double* Lj = L + j * mr + row;  // column j of L_k
+          for (int col = 0; col < c; ++col) {
+            double sum = 0.0;
+            for (int a = 0; a < r; ++a) sum += Lj[a] * t(row + a, col);
+            acc[col] += elementWeight_(k) * sum;
           }
+        }
+        for (int col = 0; col < c; ++col) b(p, col) = acc[col];
       }
     });
-    tau = &tau_;
+    return;
   }
-  const bool scale = !hasFacetWeights_;
-  const double* L = model_.locals().data();
-  parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
-    double acc[9];
-    for (int p = begin; p < end; ++p) {
-      for (int col = 0; col < c; ++col) acc[col] = 0.0;
-      for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
-        const int k = incidenceElement_[at], j = incidenceLocal_[at];
-        const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
-        const double w = scale ? elementWeight_(k) : 1.0;
+  const size_t block = static_cast<size_t>(u) * c;
+  if (contribution_.size() != static_cast<size_t>(m) * block)
+    contribution_.resize(static_cast<size_t>(m) * block);
+  // Per element, in element order: tau_k = w_k t_k + sum_(facets kl) w_kl (t_k - t_l) and its
+  // share L_k^T tau_k of the right-hand side (u x c, stored [k][j][col]) ...
+  parallel::forChunks(m, kGrain, [&](int, int begin, int end) {
+    double tau[kMaxBlock];
+    for (int k = begin; k < end; ++k) {
+      const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
+      const double wk = elementWeight_(k);
+      for (int col = 0; col < c; ++col)
+        for (int a = 0; a < r; ++a) {
+          const double tk = t(row + a, col);
+          double sum = wk * tk;
+          for (int g = facetStart_[k]; g < facetStart_[k + 1]; ++g)
+            sum += neighbourWeight_[g] *
+                   (tk - t(static_cast<Eigen::Index>(neighbour_[g]) * r + a, col));
+          tau[col * r + a] = sum;
+        }
+      double* out = contribution_.data() + static_cast<size_t>(k) * block;
+      for (int j = 0; j < u; ++j) {
         const double* Lj = L + j * mr + row;  // column j of L_k
         for (int col = 0; col < c; ++col) {
           double sum = 0.0;
-          for (int a = 0; a < r; ++a) sum += Lj[a] * (*tau)(row + a, col);
-          acc[col] += w * sum;
+          for (int a = 0; a < r; ++a) sum += Lj[a] * tau[col * r + a];
+          out[j * c + col] = sum;
         }
+      }
+    }
+  });
+  // ... then gathered per unknown over its (element, local unknown) pairs.
+  parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
+    double acc[kMaxBlock];
+    for (int p = begin; p < end; ++p) {
+      for (int col = 0; col < c; ++col) acc[col] = 0.0;
+      for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
+        const double* share = contribution_.data() +
+                              static_cast<size_t>(incidenceElement_[at]) * block +
+                              static_cast<size_t>(incidenceLocal_[at]) * c;
+        for (int col = 0; col < c; ++col) acc[col] += share[col];
       }
       for (int col = 0; col < c; ++col) b(p, col) = acc[col];
     }
@@ -305,6 +337,12 @@ std::string RegularizedSystem::singularity() const {
 
 Eigen::MatrixXd RegularizedSystem::solve(const Eigen::MatrixXd& t,
                                          const Eigen::MatrixXd& handlePositions) {
+  rightHandSide(t, b_);
+  return solveRightHandSide(b_, handlePositions);
+}
+
+Eigen::MatrixXd RegularizedSystem::solveRightHandSide(const Eigen::MatrixXd& b,
+                                                      const Eigen::MatrixXd& handlePositions) {
   const Discretization& disc = model_.discretization();
   const int q = model_.dofsPerVertex();
   if (partitionDirty_ || matrixDirty_) {
@@ -347,8 +385,9 @@ Eigen::MatrixXd RegularizedSystem::solve(const Eigen::MatrixXd& t,
     }
   }
   (void)d;
-  rightHandSide(t, b_);
-  return model_.toPositions(solver_.solve(b_, xFixed));
+  Eigen::MatrixXd x = solver_.solve(b, xFixed);
+  if (!model_.coupled()) return x;  // the unknowns are the positions
+  return model_.toPositions(x);
 }
 
 }  // namespace diffreg

@@ -52,6 +52,10 @@ class RegularizedSystem {
   /// handle positions (one row per setHandles() vertex, d columns).
   /// \throw SingularSystem (see singularity()) or when the factorization or solution fails.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& t, const Eigen::MatrixXd& handlePositions);
+  /// Same as solve() for a right-hand side b = C t already computed by rightHandSide() (e.g.
+  /// kept for targets that do not change between solves).
+  Eigen::MatrixXd solveRightHandSide(const Eigen::MatrixXd& b,
+                                     const Eigen::MatrixXd& handlePositions);
 
   /// The full system matrix A (numUnknowns() square), assembled for the current weights.
   const SparseMatrix& matrix() const { return A_; }
@@ -75,8 +79,11 @@ class RegularizedSystem {
   Eigen::VectorXd elementWeight_, facetWeight_;  // (1 - beta_k) a_k and ell beta_kl c_kl
   bool hasFacetWeights_ = false, reserveCouplings_ = true, couplings_ = false;
   SparseMatrix A_;
-  mutable Eigen::MatrixXd tau_;  // per-element right-hand-side weights, reused
-  Eigen::MatrixXd b_;            // right-hand side, reused
+  // Per element: its facets' other elements and weights (facetStart_ CSR).
+  std::vector<int> neighbour_;
+  std::vector<double> neighbourWeight_;
+  mutable std::vector<double> contribution_;  // per element L_k^T tau_k, reused
+  Eigen::MatrixXd b_;                         // right-hand side, reused
   EliminatedSolver solver_;
   bool partitionDirty_ = true, matrixDirty_ = true;
 };
