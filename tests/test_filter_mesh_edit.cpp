@@ -359,3 +359,28 @@ TEST_CASE("flip_edges and subdivide refuse tet meshes and bad parameters with on
   CHECK(same.mesh.elements() == bar.mesh.elements());
   CHECK(same.handles.allVertices() == bar.handles.allVertices());
 }
+
+TEST_CASE("after flip_edges or subdivide, element properties must be produced again",
+          "[filter][mesh]") {
+  const Document doc = inCode(makeRectangle(4.0, 1.0, 16, 4), R"({"handles": [
+      {"name": "left", "nearest": [0, 0.5, 0], "translate": [0, 0, 0]},
+      {"name": "right", "nearest": [4, 0.5, 0], "translate": [0, 1, 0]}]})");
+  for (const char* edit : {"flip_edges", "subdivide"}) {
+    INFO(edit);
+    Pipeline stale;
+    stale.add("deform").add(edit).add("render", {{"file", "x.png"}, {"property", "distortion"}});
+    CHECK_THROWS_AS(stale.check(doc), MissingProperty);
+    CHECK_THROWS_WITH(stale.check(doc), Catch::Contains("step 3 (filter render)") &&
+                                            Catch::Contains("diffreg:distortion") &&
+                                            Catch::Contains(std::string("(") + edit + ") removed it"));
+    // Measuring again after the edit provides it; the weights (a vertex property) survive.
+    Pipeline fresh;
+    fresh.add("diffuse_weights")
+        .add("deform")
+        .add(edit)
+        .add("measure")
+        .add("render", {{"file", "x.png"}, {"property", "distortion"}})
+        .add("render", {{"file", "y.png"}, {"property", "weight"}});
+    CHECK_NOTHROW(fresh.check(doc));
+  }
+}

@@ -30,6 +30,9 @@ class Filter {
   /// on the parameters (e.g. only for regularization=nonuniform).
   virtual std::vector<std::string> requires(const ParamMap&) const { return {}; }
   virtual std::vector<std::string> produces(const ParamMap&) const { return {}; }
+  /// Whether apply() removes every element property (e.g. filters that change the elements),
+  /// so that later steps needing one must run a producer again.
+  virtual bool dropsElementProperties() const { return false; }
   /// Whether the filter needs a handle set on the document.
   virtual bool needsHandles() const { return false; }
   /// Checks that need the document or the file system (e.g. that an output's directory

@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/timer.h"
 
+#include <map>
 #include <set>
 
 namespace diffreg {
@@ -14,9 +15,13 @@ Pipeline& Pipeline::add(const std::string& filter,
 }
 
 void Pipeline::check(const Document& doc) const {
-  std::set<std::string> available;
+  std::set<std::string> available, elementProperties;
+  std::map<std::string, std::string> dropped;  // element property -> the step that removed it
   for (const auto& name : doc.mesh.vertexScalarNames()) available.insert(name);
-  for (const auto& name : doc.mesh.elementScalarNames()) available.insert(name);
+  for (const auto& name : doc.mesh.elementScalarNames()) {
+    available.insert(name);
+    elementProperties.insert(name);
+  }
 
   for (size_t i = 0; i < steps_.size(); ++i) {
     const Filter& filter = registry_.get(steps_[i].filter);
@@ -36,10 +41,23 @@ void Pipeline::check(const Document& doc) const {
       throw MissingProperty("step " + std::to_string(i + 1) + " (filter " + filter.name() +
                             ") needs property '" + property +
                             "', which neither the mesh nor an earlier step provides" +
+                            (dropped.count(property) ? " (" + dropped[property] + " removed it)"
+                                                     : std::string()) +
                             (providers.empty() ? std::string(" (no filter produces it)")
                                                : "; run " + providers + " before it"));
     }
-    for (const auto& property : filter.produces(params)) available.insert(property);
+    if (filter.dropsElementProperties()) {
+      for (const auto& property : elementProperties) {
+        available.erase(property);
+        dropped[property] = "step " + std::to_string(i + 1) + " (" + filter.name() + ")";
+      }
+      elementProperties.clear();
+    }
+    for (const auto& property : filter.produces(params)) {
+      available.insert(property);
+      // Every produced property but the weights lives on elements (mesh/mesh.h, prop).
+      if (property != prop::weight) elementProperties.insert(property);
+    }
   }
 }
 

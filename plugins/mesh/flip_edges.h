@@ -17,6 +17,7 @@ class FlipEdgesFilter : public Filter {
   std::string description() const override;
   std::vector<ParamSpec> params() const override;
   /// \throw InvalidParameter for a tet mesh.
+  bool dropsElementProperties() const override { return true; }
   FilterResult apply(Document& doc, const ParamMap& params) const override;
 };
 

@@ -20,6 +20,7 @@ class SubdivideFilter : public Filter {
   std::string description() const override;
   std::vector<ParamSpec> params() const override;
   /// \throw InvalidParameter for a tet mesh.
+  bool dropsElementProperties() const override { return true; }
   FilterResult apply(Document& doc, const ParamMap& params) const override;
 };
 
