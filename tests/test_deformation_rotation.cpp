@@ -2,6 +2,7 @@
 // performance options (reserved couplings, progress callback) change no result.
 #include "test_deformation_fixtures.h"
 
+#include "core/error.h"
 #include "deformation/rotation.h"
 
 #include <catch2/catch.hpp>
@@ -155,4 +156,40 @@ TEST_CASE("the progress callback sees every iteration's energy", "[deformation][
         CHECK(seen[i].second == r.energies[r.energies.size() - seen.size() + i]);
       }
     }
+}
+
+TEST_CASE("solveFrom continues from a given shape: a drag needs few iterations",
+          "[deformation][session]") {
+  for (MeshKind kind : kAllKinds) {
+    const auto disc = makeBar(kind);
+    const std::vector<int> handles = bothEnds(*disc);
+    Eigen::MatrixXd targets = rows(disc->rest(), handles);
+    for (Eigen::Index i = 0; i < targets.rows(); ++i)
+      if (targets(i, 0) > 2.0) targets(i, 1) += 1.0;
+    DeformationSession s(*disc);
+    s.setHandles(handles);
+    s.setTargets(targets);
+    const DeformationResult settled = s.solve(300, 0.0);
+    INFO(toString(kind));
+    // From its own result: no energy increase (each local/global step is a descent step).
+    const DeformationResult again = s.solveFrom(settled.positions, 1, 0.0);
+    CHECK(again.initialGuess == "given");
+    CHECK(again.energies.front() == Approx(settled.energies.back()).epsilon(1e-9));
+    CHECK(again.energies.back() <= settled.energies.back() * (1 + 1e-12));
+    // A small drag of the moved end: five iterations from the previous shape get a lower
+    // energy than five from the rest shape (or the ASAP guess).
+    Eigen::MatrixXd dragged = targets;
+    for (Eigen::Index i = 0; i < dragged.rows(); ++i)
+      if (dragged(i, 0) > 2.0) dragged(i, 1) += 0.05;
+    s.setTargets(dragged);
+    const DeformationResult warm = s.solveFrom(settled.positions, 5, 0.0);
+    const DeformationResult fresh = s.solve(5, 0.0);
+    INFO("warm " << warm.energies.back() << " fresh " << fresh.energies.back());
+    CHECK(warm.energies.back() < fresh.energies.back());
+    CHECK_THROWS_AS(s.solveFrom(Eigen::MatrixXd::Zero(3, disc->dim()), 10, 0.0),
+                    InvalidParameter);
+    Eigen::MatrixXd bad = settled.positions;
+    bad(0, 0) = std::nan("");
+    CHECK_THROWS_AS(s.solveFrom(bad, 10, 0.0), InvalidParameter);
+  }
 }

@@ -146,3 +146,44 @@ TEST_CASE("serve session: surfaces and tet meshes deform with every energy", "[s
     }
   }
 }
+
+TEST_CASE("serve session: with continue_drags a drag continues from the current shape",
+          "[serve]") {
+  for (bool continueDrags : {false, true}) {
+    INFO("continue_drags " << continueDrags);
+    EditSession s(shipped("bar.obj"));
+    EditState state = s.state();
+    state.params.iterations = 500;
+    state.params.tolerance = 1e-7;
+    state.params.continueDrags = continueDrags;
+    state.handles.push_back(handle(s, state, {0, 33, 66, 99, 132}));
+    state.handles.push_back(handle(s, state, {32, 65, 98, 131, 164}));
+    state.handles[1].targets.col(1).array() += 1.0;
+    s.setState(state);
+    const UpdateReport first = s.update();
+    REQUIRE(first.solved);
+    CHECK(first.initialGuess != "given");  // nothing to continue from yet
+
+    // A small drag step.
+    state = s.state();
+    state.handles[1].targets.col(1).array() += 0.02;
+    s.setState(state);
+    const UpdateReport drag = s.update();
+    REQUIRE(drag.solved);
+    CHECK(s.positions()(98, 1) == Approx(1.52));
+    CHECK(drag.deformationWork == "solve");
+    if (continueDrags) {
+      CHECK(drag.initialGuess == "given");
+      CHECK(drag.iterations < first.iterations);
+    } else {
+      CHECK(drag.initialGuess != "given");
+    }
+
+    // Any other change solves from scratch again.
+    state = s.state();
+    state.params.beta = 0.3;
+    state.params.regularization = Regularization::Uniform;
+    s.setState(state);
+    CHECK(s.update().initialGuess != "given");
+  }
+}

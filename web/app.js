@@ -525,6 +525,7 @@ function renderParams() {
   $('beta-row').hidden = p.regularization !== 'uniform';
   set('iterations', p.iterations);
   $('reference').checked = p.reference;
+  $('continue').checked = p.continue_drags;
   set('scheme', p.scheme === 'rbf' ? 'rbf' : 'diffusion:' + p.order);
   set('t', Math.log10(p.t));
   $('t-out').textContent = fmt(p.t);
@@ -617,6 +618,7 @@ function wirePanel() {
   param('beta', (v) => { $('beta-out').textContent = Number(v).toFixed(2); return { beta: Number(v) }; });
   param('iterations', (v) => ({ iterations: Math.round(Number(v)) }));
   $('reference').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { reference: $('reference').checked }));
+  $('continue').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { continue_drags: $('continue').checked }));
   param('t', (v) => { $('t-out').textContent = fmt(10 ** Number(v)); return { t: 10 ** Number(v) }; });
   param('sigma', (v) => ({ sigma: Number(v) }));
   param('scheme', (v) => (v === 'rbf' ? { scheme: 'rbf' } : { scheme: 'diffusion', order: v.split(':')[1] }));

@@ -81,6 +81,24 @@ SolverStats DeformationSession::stats() const {
 }
 
 DeformationResult DeformationSession::solve(int maxIterations, double relTolerance) {
+  return run(maxIterations, relTolerance, nullptr);
+}
+
+DeformationResult DeformationSession::solveFrom(const Eigen::MatrixXd& initial, int maxIterations,
+                                                double relTolerance) {
+  const int d = disc_.dim();
+  if (initial.rows() != disc_.numVertices() || initial.cols() != d)
+    throw InvalidParameter("deformation: the initial positions must be " +
+                           std::to_string(disc_.numVertices()) + " x " + std::to_string(d) +
+                           ", not " + std::to_string(initial.rows()) + " x " +
+                           std::to_string(initial.cols()));
+  if (!initial.allFinite())
+    throw InvalidParameter("deformation: the initial positions are not all finite");
+  return run(maxIterations, relTolerance, &initial);
+}
+
+DeformationResult DeformationSession::run(int maxIterations, double relTolerance,
+                                          const Eigen::MatrixXd* initial) {
   if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
   if (maxIterations < 1)
     throw InvalidParameter("deformation: iterations = " + std::to_string(maxIterations) +
@@ -121,7 +139,12 @@ DeformationResult DeformationSession::solve(int maxIterations, double relToleran
   Eigen::MatrixXd X;
   const Eigen::MatrixXd* t = &t_;
   double E = std::numeric_limits<double>::infinity();
-  if (initSystem_ && initSystem_->singularity().empty()) {
+  if (initial) {
+    X = *initial;
+    result.initialGuess = "given";
+    E = energyAt(X);  // also fits t_ to X
+    result.energies.push_back(E);
+  } else if (initSystem_ && initSystem_->singularity().empty()) {
     if (initRhs_.size() == 0) {
       Eigen::MatrixXd t0;
       initModel_->targets(disc_.rest(), t0);  // constant: ASAP is linear in 2D

@@ -45,7 +45,7 @@ struct DeformationResult {
   bool converged = true;  ///< relative energy change fell below the tolerance
   /// Where the first local step takes its rotations: "rest" (identities, so the first global
   /// step is the Dirichlet solve) or "asap" (the regularized ASAP solution, used by ARAP on
-  /// planar meshes when every component has 2 distinct handle points).
+  /// planar meshes when every component has 2 distinct handle points) or "given" (solveFrom).
   std::string initialGuess = "rest";
 };
 
@@ -73,6 +73,13 @@ class DeformationSession {
   ///        tolerance. \throw SingularSystem when a component has too few handle points.
   DeformationResult solve(int maxIterations, double relTolerance);
   DeformationResult solve() { return solve(options_.maxIterations, options_.relTolerance); }
+  /// Like solve(), but the iterative energies take their first rotations from `initial` (n x d
+  /// positions, typically the previous result while a handle is dragged) instead of the rest
+  /// shape or the ASAP guess: after a small handle move a few iterations converge. The result
+  /// then depends on the starting shape (ARAP has local minima). Linear energies ignore it.
+  /// \throw InvalidParameter as solve(), or for `initial` of the wrong size or not finite.
+  DeformationResult solveFrom(const Eigen::MatrixXd& initial, int maxIterations,
+                              double relTolerance);
 
   const DeformationOptions& options() const { return options_; }
   const ResidualModel& model() const { return model_; }
@@ -84,6 +91,8 @@ class DeformationSession {
   SolverStats stats() const;
 
  private:
+  // solve() (initial = nullptr) and solveFrom().
+  DeformationResult run(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial);
   const Discretization& disc_;
   DeformationOptions options_;
   ResidualModel model_;

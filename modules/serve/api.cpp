@@ -144,7 +144,8 @@ json paramsJson(const EditParams& p) {
           {"tolerance", p.tolerance},
           {"sigma", p.rbf.sigma},
           {"rbf_distance", toString(p.rbf.distance)},
-          {"reference", p.reference}};
+          {"reference", p.reference},
+          {"continue_drags", p.continueDrags}};
 }
 
 json matrixRows(const Eigen::MatrixXd& m) {
@@ -446,7 +447,7 @@ ApiResponse Api::edit(const ApiRequest& r) {
     if (p == "/api/params") {
       allowOnly(body,
                 {"energy", "regularization", "beta", "scheme", "order", "t", "unit", "steps",
-                 "iterations", "tolerance", "sigma", "rbf_distance", "reference"},
+                 "iterations", "tolerance", "sigma", "rbf_distance", "reference", "continue_drags"},
                 "params");
       EditParams& q = want.params;
       if (body.contains("energy")) q.energy = parseEnergy(text(body, "energy"));
@@ -465,6 +466,7 @@ ApiResponse Api::edit(const ApiRequest& r) {
       if (body.contains("rbf_distance"))
         q.rbf.distance = parseRbfDistance(text(body, "rbf_distance"));
       if (body.contains("reference")) q.reference = boolean(body, "reference");
+      if (body.contains("continue_drags")) q.continueDrags = boolean(body, "continue_drags");
       s.setState(std::move(want));
     } else if (p == "/api/handles" && r.method == "DELETE") {
       want.handles.clear();

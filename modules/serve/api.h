@@ -22,7 +22,8 @@
 //                            "implicit_euler", "t": (0, 1e6], "unit": "absolute"|"diagonal"|
 //                            "mean_edge2", "steps": [1, 1e5], "iterations": [1, 1000],
 //                            "tolerance": [0, 1], "sigma": (0, 1e6], "rbf_distance":
-//                            "euclidean"|"geodesic", "reference": bool}
+//                            "euclidean"|"geodesic", "reference": bool, "continue_drags": bool
+//                            (EditParams::continueDrags)}
 //   POST   /api/handles      add a handle {"vertices": [ids], "name"?, "range"? (0, 1e6],
 //                            "magnitude"? [0, 1], "targets"? [[x, y, z], ...]}; targets default
 //                            to the vertices' current (deformed) positions. The state document

@@ -340,6 +340,8 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
       S.deform->setHandles(allVertices(want));
       dirty = true;
     }
+    // A drag: only targets moved since the last solve, which continues from its result.
+    bool drag = !dirty && p.continueDrags;
     if (dirty || !sameTargets(*had, want)) {
       S.deform->setTargets(stackedTargets(want));
       dirty = true;
@@ -357,10 +359,13 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
         S.deformWeightsSerial = S.weightsSerial;
         dirty = true;
       }
+      if (regChanged || q.iterations != p.iterations || q.tolerance != p.tolerance) drag = false;
       if (q.iterations != p.iterations || q.tolerance != p.tolerance) dirty = true;
     }
     if (dirty) {
-      const DeformationResult result = S.deform->solve(p.iterations, p.tolerance);
+      const DeformationResult result =
+          drag ? S.deform->solveFrom(positions_.leftCols(d), p.iterations, p.tolerance)
+               : S.deform->solve(p.iterations, p.tolerance);
       positions = rest3;
       positions.leftCols(d) = result.positions;
       report.iterations = result.iterations;
@@ -399,6 +404,9 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
       S.reference->setHandles(allVertices(want));
       dirty = true;
     }
+    const bool drag = !dirty && p.continueDrags && !sameTargets(*had, want) &&
+                      had->params.iterations == p.iterations &&
+                      had->params.tolerance == p.tolerance;
     if (dirty || !sameTargets(*had, want)) {
       S.reference->setTargets(stackedTargets(want));
       dirty = true;
@@ -406,7 +414,10 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
     if (!fresh && (had->params.iterations != p.iterations || had->params.tolerance != p.tolerance))
       dirty = true;
     if (dirty) {
-      S.referencePositions = S.reference->solve(p.iterations, p.tolerance).positions;
+      S.referencePositions =
+          (drag ? S.reference->solveFrom(S.referencePositions, p.iterations, p.tolerance)
+                : S.reference->solve(p.iterations, p.tolerance))
+              .positions;
       referenceChanged = true;
     }
     S.referenceSynced = want;

@@ -54,6 +54,11 @@ struct EditParams {
   double tolerance = 1e-6;  ///< relative energy decrease that stops the iterations
   /// Also solve the edit without regularization, for the Dist metric (paper Table 1).
   bool reference = true;
+  /// While only handle targets move (a drag), continue the iterations from the current shape
+  /// (DeformationSession::solveFrom): a few iterations instead of a full solve, but the shape
+  /// then depends on the path of the drag as long as the iterations have not converged. Off:
+  /// every update solves from the rest shape, as the diffreg tool does.
+  bool continueDrags = false;
 };
 
 /// One handle: constrained vertices, their target positions, and its range r_j and magnitude
