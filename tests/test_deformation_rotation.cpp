@@ -193,3 +193,37 @@ TEST_CASE("solveFrom continues from a given shape: a drag needs few iterations",
     CHECK_THROWS_AS(s.solveFrom(bad, 10, 0.0), InvalidParameter);
   }
 }
+
+TEST_CASE("a flat mesh deformed as a surface in 3D follows the planar iterates exactly",
+          "[deformation][session]") {
+  // The planar bar, and the same bar rotated into 3D as a surface: with in-plane targets the
+  // surface energy (tangent-plane rotations) is the planar one, so every iterate must agree.
+  const auto planar = makeBar(MeshKind::Planar);
+  const Eigen::Matrix3d R = rotation(3, 0.7);
+  Eigen::MatrixXd flat = Eigen::MatrixXd::Zero(planar->numVertices(), 3);
+  flat.leftCols(2) = planar->rest().leftCols(2);
+  const Discretization surface(MeshKind::Surface, flat * R.transpose(), planar->elements());
+  const std::vector<int> handles = bothEnds(*planar);
+  Eigen::MatrixXd targets = rows(planar->rest(), handles).leftCols(2);
+  for (Eigen::Index i = 0; i < targets.rows(); ++i)
+    if (targets(i, 0) > 2.0) targets(i, 1) += 1.0;
+  Eigen::MatrixXd targets3 = Eigen::MatrixXd::Zero(targets.rows(), 3);
+  targets3.leftCols(2) = targets;
+
+  {
+    DeformationSession a(*planar), b(surface);  // ARAP
+    a.setHandles(handles);
+    b.setHandles(handles);
+    a.setTargets(targets);
+    b.setTargets(targets3 * R.transpose());
+    // Both from the rest shape (planar ARAP would otherwise start from ASAP).
+    const DeformationResult p = a.solveFrom(planar->rest().leftCols(2), 30, 0.0);
+    const DeformationResult s = b.solveFrom(surface.rest(), 30, 0.0);
+    REQUIRE(p.energies.size() == s.energies.size());
+    for (size_t i = 0; i < p.energies.size(); ++i)
+      CHECK(s.energies[i] == Approx(p.energies[i]).epsilon(1e-9).margin(1e-12));
+    const Eigen::MatrixXd back = s.positions * R;  // rotated back into the plane
+    CHECK((back.leftCols(2) - p.positions).cwiseAbs().maxCoeff() < 1e-7);
+    CHECK(back.col(2).cwiseAbs().maxCoeff() < 1e-9);
+  }
+}
