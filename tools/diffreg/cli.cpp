@@ -4,6 +4,7 @@
 #include "core/log.h"
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -21,6 +22,28 @@ std::string join(const std::vector<std::string>& items, const char* separator) {
   std::string out;
   for (size_t i = 0; i < items.size(); ++i) out += (i ? separator : "") + items[i];
   return out;
+}
+
+std::string fixed(double value, int digits) {
+  if (!std::isfinite(value)) return "-";
+  std::ostringstream out;
+  const double magnitude = std::abs(value);
+  if (value != 0.0 && (magnitude < 1e-3 || magnitude >= 1e5)) {
+    out.precision(digits - 1);
+    out << std::scientific << value;
+  } else {
+    out.precision(digits);
+    out << std::fixed << value;
+  }
+  return out.str();
+}
+
+void parseSize(const std::string& command, const std::string& size, int& width, int& height) {
+  char x = 0;
+  std::istringstream in(size);
+  if (!(in >> width >> x >> height) || x != 'x' || !in.eof() || width < 100 || height < 100 ||
+      width > 4000 || height > 4000)
+    throw UsageError(command + ": --size '" + size + "' is not WxH with 100 <= W, H <= 4000");
 }
 
 void checkWritableDir(const std::string& path) {

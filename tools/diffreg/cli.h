@@ -17,6 +17,14 @@ struct UsageError : std::runtime_error {
 
 std::string join(const std::vector<std::string>& items, const char* separator);
 
+/// `value` with `digits` decimals, or in scientific notation with `digits` significant digits
+/// when |value| < 1e-3 or >= 1e5 (0 stays fixed); "-" when not finite. For tables.
+std::string fixed(double value, int digits);
+
+/// Parses a picture size "WxH" given to `command`'s --size.
+/// \throw UsageError unless both are whole numbers in [100, 4000].
+void parseSize(const std::string& command, const std::string& size, int& width, int& height);
+
 /// \throw IoError unless the directory that would hold `path` exists.
 void checkWritableDir(const std::string& path);
 

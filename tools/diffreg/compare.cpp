@@ -52,20 +52,6 @@ Step parseStep(const std::string& spec, const std::string& option) {
   return Step{name, values};
 }
 
-std::string fixed(double value, int digits) {
-  if (!std::isfinite(value)) return "-";
-  std::ostringstream out;
-  const double magnitude = std::abs(value);
-  if (value != 0.0 && (magnitude < 1e-3 || magnitude >= 1e5)) {
-    out.precision(digits - 1);
-    out << std::scientific << value;
-  } else {
-    out.precision(digits);
-    out << std::fixed << value;
-  }
-  return out.str();
-}
-
 std::string markdownTable(const std::vector<Variant>& variants) {
   std::ostringstream md;
   md << "| regularization | beta | D_max | D_ave | D_dev | Dist | inverted | energy | iterations "
@@ -170,14 +156,7 @@ int runCompare(int argc, char** argv) {
   if (!vm.count("handles"))
     throw UsageError("compare: missing --handles H.json (see diffreg compare --help)");
   int width = 0, height = 0;
-  {
-    const std::string size = vm["size"].as<std::string>();
-    char x = 0;
-    std::istringstream in(size);
-    if (!(in >> width >> x >> height) || x != 'x' || !in.eof() || width < 100 || height < 100 ||
-        width > 4000 || height > 4000)
-      throw UsageError("compare: --size '" + size + "' is not WxH with 100 <= W, H <= 4000");
-  }
+  parseSize("compare", vm["size"].as<std::string>(), width, height);
   const Step weightsStep = parseStep(vm["weights"].as<std::string>(), "--weights");
   Step deformStep = parseStep(vm["deform"].as<std::string>(), "--deform");
   if (deformStep.filter != "deform")

@@ -55,34 +55,12 @@ struct Cell {
   double maxChange = 0.0, meanChange = 0.0, mean = 0.0, probe = 0.0;
 };
 
-std::string fixed(double value, int digits) {
-  if (!std::isfinite(value)) return "-";
-  std::ostringstream out;
-  const double magnitude = std::abs(value);
-  if (value != 0.0 && (magnitude < 1e-3 || magnitude >= 1e5)) {
-    out.precision(digits - 1);
-    out << std::scientific << value;
-  } else {
-    out.precision(digits);
-    out << std::fixed << value;
-  }
-  return out.str();
-}
-
 /// A short number for picture titles (3 significant digits).
 std::string shortNumber(double value) {
   std::ostringstream out;
   out.precision(3);
   out << value;
   return out.str();
-}
-
-void parseSize(const std::string& size, int& width, int& height) {
-  char x = 0;
-  std::istringstream in(size);
-  if (!(in >> width >> x >> height) || x != 'x' || !in.eof() || width < 100 || height < 100 ||
-      width > 4000 || height > 4000)
-    throw UsageError("resolution: --size '" + size + "' is not WxH with 100 <= W, H <= 4000");
 }
 
 std::string markdownTable(const std::vector<Cell>& cells, const std::vector<Document>& levels,
@@ -203,7 +181,7 @@ int runResolution(int argc, char** argv) {
     throw UsageError("resolution: --scheme '" + scheme + "' is not one of midpoint, loop");
   int width = 520, height = 0;  // auto: the height from the shape
   if (vm["size"].as<std::string>() != "auto")
-    parseSize(vm["size"].as<std::string>(), width, height);
+    parseSize("resolution", vm["size"].as<std::string>(), width, height);
   std::vector<std::string> outputs;
   for (const char* key : {"output", "report", "markdown"})
     if (vm.count(key)) {
