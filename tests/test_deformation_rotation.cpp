@@ -22,6 +22,13 @@ Eigen::Matrix<double, D, D> randomMatrix(std::mt19937& rng) {
   return F;
 }
 
+/// `targets` (rows of the bar's handle vertices) with the far end (x > 2) lifted by `dy` in y.
+Eigen::MatrixXd liftFarEnd(Eigen::MatrixXd targets, double dy) {
+  for (Eigen::Index i = 0; i < targets.rows(); ++i)
+    if (targets(i, 0) > 2.0) targets(i, 1) += dy;
+  return targets;
+}
+
 }  // namespace
 
 TEST_CASE("the planar closed form is the SVD's closest rotation", "[deformation][rotation]") {
@@ -109,9 +116,7 @@ TEST_CASE("a session without reserved couplings gives the same deformation",
   for (MeshKind kind : kAllKinds) {
     const auto disc = makeBar(kind);
     const std::vector<int> handles = bothEnds(*disc);
-    Eigen::MatrixXd targets = rows(disc->rest(), handles);
-    for (Eigen::Index i = 0; i < targets.rows(); ++i)
-      if (targets(i, 0) > 2.0) targets(i, 1) += 1.0;
+    const Eigen::MatrixXd targets = liftFarEnd(rows(disc->rest(), handles), 1.0);
     DeformationOptions reserved, lean;
     reserved.maxIterations = lean.maxIterations = 10;
     lean.reserveRegularization = false;
@@ -140,9 +145,7 @@ TEST_CASE("the progress callback sees every iteration's energy", "[deformation][
     for (Energy energy : kAllEnergies) {
       const auto disc = makeBar(kind);
       const std::vector<int> handles = bothEnds(*disc);
-      Eigen::MatrixXd targets = rows(disc->rest(), handles);
-      for (Eigen::Index i = 0; i < targets.rows(); ++i)
-        if (targets(i, 0) > 2.0) targets(i, 1) += 1.0;
+      const Eigen::MatrixXd targets = liftFarEnd(rows(disc->rest(), handles), 1.0);
       std::vector<std::pair<int, double>> seen;
       DeformationOptions o;
       o.energy = energy;
@@ -163,9 +166,7 @@ TEST_CASE("solveFrom continues from a given shape: a drag needs few iterations",
   for (MeshKind kind : kAllKinds) {
     const auto disc = makeBar(kind);
     const std::vector<int> handles = bothEnds(*disc);
-    Eigen::MatrixXd targets = rows(disc->rest(), handles);
-    for (Eigen::Index i = 0; i < targets.rows(); ++i)
-      if (targets(i, 0) > 2.0) targets(i, 1) += 1.0;
+    const Eigen::MatrixXd targets = liftFarEnd(rows(disc->rest(), handles), 1.0);
     DeformationSession s(*disc);
     s.setHandles(handles);
     s.setTargets(targets);
@@ -178,10 +179,7 @@ TEST_CASE("solveFrom continues from a given shape: a drag needs few iterations",
     CHECK(again.energies.back() <= settled.energies.back() * (1 + 1e-12));
     // A small drag of the moved end: five iterations from the previous shape get a lower
     // energy than five from the rest shape (or the ASAP guess).
-    Eigen::MatrixXd dragged = targets;
-    for (Eigen::Index i = 0; i < dragged.rows(); ++i)
-      if (dragged(i, 0) > 2.0) dragged(i, 1) += 0.05;
-    s.setTargets(dragged);
+    s.setTargets(liftFarEnd(targets, 0.05));
     const DeformationResult warm = s.solveFrom(settled.positions, 5, 0.0);
     const DeformationResult fresh = s.solve(5, 0.0);
     INFO("warm " << warm.energies.back() << " fresh " << fresh.energies.back());
@@ -204,9 +202,7 @@ TEST_CASE("a flat mesh deformed as a surface in 3D follows the planar iterates e
   flat.leftCols(2) = planar->rest().leftCols(2);
   const Discretization surface(MeshKind::Surface, flat * R.transpose(), planar->elements());
   const std::vector<int> handles = bothEnds(*planar);
-  Eigen::MatrixXd targets = rows(planar->rest(), handles).leftCols(2);
-  for (Eigen::Index i = 0; i < targets.rows(); ++i)
-    if (targets(i, 0) > 2.0) targets(i, 1) += 1.0;
+  const Eigen::MatrixXd targets = liftFarEnd(rows(planar->rest(), handles).leftCols(2), 1.0);
   Eigen::MatrixXd targets3 = Eigen::MatrixXd::Zero(targets.rows(), 3);
   targets3.leftCols(2) = targets;
 
