@@ -2,6 +2,8 @@
 // code, stdout and stderr.
 #pragma once
 
+#include "test_support.h"
+
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
@@ -15,11 +17,6 @@
 namespace diffreg::testing {
 
 namespace fs = std::filesystem;
-
-/// A mesh or handle file the project ships in meshes/.
-inline std::string shipped(const std::string& name) {
-  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
-}
 
 inline std::string slurp(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);

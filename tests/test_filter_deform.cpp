@@ -7,17 +7,16 @@
 #include "pipeline/pipeline.h"
 #include "plugins.h"
 
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <string>
 
 using namespace diffreg;
+using namespace diffreg::testing;
 
 namespace {
-
-std::string shipped(const std::string& name) {
-  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
-}
 
 /// The metrics of `measure` after diffuse_weights (t) and deform with `regularization`.
 nlohmann::json runEdit(const Document& input, const std::string& regularization, double beta,

@@ -6,6 +6,8 @@
 #include "pipeline/pipeline.h"
 #include "plugins.h"
 
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <filesystem>
@@ -14,13 +16,10 @@
 #include <unistd.h>
 
 using namespace diffreg;
+using namespace diffreg::testing;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string shipped(const std::string& name) {
-  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
-}
 
 Document bar() { return Document::load(shipped("bar.obj"), shipped("bar-bend.json")); }
 

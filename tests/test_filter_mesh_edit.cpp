@@ -7,6 +7,8 @@
 #include "pipeline/pipeline.h"
 #include "plugins.h"
 
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -15,20 +17,9 @@
 #include <vector>
 
 using namespace diffreg;
+using namespace diffreg::testing;
 
 namespace {
-
-std::string shipped(const std::string& name) {
-  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
-}
-
-Document inCode(Mesh mesh, const std::string& handleJson) {
-  Document doc;
-  doc.mesh = std::move(mesh);
-  doc.rest = doc.mesh.positions();
-  doc.handles = parseHandles(handleJson, doc.mesh, "test handles");
-  return doc;
-}
 
 /// Runs the steps on a copy of `input` and returns the result (and the report).
 Document run(const Document& input, const std::vector<Step>& steps,

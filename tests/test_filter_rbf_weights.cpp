@@ -7,34 +7,17 @@
 #include "plugins.h"
 #include "weights/rbf.h"
 
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <cmath>
 #include <string>
 
 using namespace diffreg;
+using namespace diffreg::testing;
 
 namespace {
-
-std::string shipped(const std::string& name) {
-  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
-}
-
-Document inCode(Mesh mesh, const std::string& handleJson) {
-  Document doc;
-  doc.mesh = std::move(mesh);
-  doc.rest = doc.mesh.positions();
-  doc.handles = parseHandles(handleJson, doc.mesh, "test handles");
-  return doc;
-}
-
-int nearest(const Mesh& mesh, const Eigen::Vector3d& p) {
-  const Eigen::MatrixXd x = mesh.positions();
-  int best = 0;
-  for (int v = 1; v < x.rows(); ++v)
-    if ((x.row(v).transpose() - p).norm() < (x.row(best).transpose() - p).norm()) best = v;
-  return best;
-}
 
 nlohmann::json runOne(Document& doc, const std::string& filter,
                       const std::map<std::string, std::string>& values) {

@@ -8,6 +8,8 @@
 #include "plugins.h"
 #include "render/render.h"
 
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <filesystem>
@@ -17,13 +19,10 @@
 #include <unistd.h>
 
 using namespace diffreg;
+using namespace diffreg::testing;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string shipped(const std::string& name) {
-  return std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name;
-}
 
 struct TempDir {
   fs::path path;

@@ -7,22 +7,17 @@
 #include "weights/geodesic.h"
 #include "weights/rbf.h"
 
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <cmath>
 #include <vector>
 
 using namespace diffreg;
+using namespace diffreg::testing;
 
 namespace {
-
-int nearest(const Mesh& mesh, const Eigen::Vector3d& p) {
-  const Eigen::MatrixXd x = mesh.positions();
-  int best = 0;
-  for (int v = 1; v < x.rows(); ++v)
-    if ((x.row(v).transpose() - p).norm() < (x.row(best).transpose() - p).norm()) best = v;
-  return best;
-}
 
 Eigen::VectorXd euclidean(const Mesh& mesh, int source) {
   const Eigen::MatrixXd x = mesh.positions();
