@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <iomanip>
 #include <sstream>
 
@@ -22,6 +23,26 @@ std::string join(const std::vector<std::string>& items, const char* separator) {
   std::string out;
   for (size_t i = 0; i < items.size(); ++i) out += (i ? separator : "") + items[i];
   return out;
+}
+
+bool parseCommandLine(int argc, char** argv, const char* usage,
+                      const boost::program_options::options_description& options,
+                      boost::program_options::variables_map& vm) {
+  namespace po = boost::program_options;
+  po::store(po::command_line_parser(argc, argv).options(options).run(), vm);
+  po::notify(vm);
+  if (vm.count("help")) {
+    std::cout << usage << "\n" << options;
+    return false;
+  }
+  if (vm.count("quiet") && vm["quiet"].as<bool>()) setQuiet(true);
+  return true;
+}
+
+void requireOption(const boost::program_options::variables_map& vm, const std::string& key,
+                   const std::string& command, const std::string& what) {
+  if (!vm.count(key))
+    throw UsageError(command + ": missing " + what + " (see diffreg " + command + " --help)");
 }
 
 std::string fixed(double value, int digits) {

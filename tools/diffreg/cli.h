@@ -2,6 +2,8 @@
 // or not at all.
 #pragma once
 
+#include <boost/program_options.hpp>
+
 #include <chrono>
 #include <stdexcept>
 #include <string>
@@ -16,6 +18,16 @@ struct UsageError : std::runtime_error {
 };
 
 std::string join(const std::vector<std::string>& items, const char* separator);
+
+/// Parses a command's options into `vm`. With --help prints `usage` and the options and returns
+/// false (nothing else to do); applies --quiet when the options have it.
+bool parseCommandLine(int argc, char** argv, const char* usage,
+                      const boost::program_options::options_description& options,
+                      boost::program_options::variables_map& vm);
+
+/// \throw UsageError "COMMAND: missing WHAT (see diffreg COMMAND --help)" unless `vm` has `key`.
+void requireOption(const boost::program_options::variables_map& vm, const std::string& key,
+                   const std::string& command, const std::string& what);
 
 /// `value` with `digits` decimals, or in scientific notation with `digits` significant digits
 /// when |value| < 1e-3 or >= 1e5 (0 stays fixed); "-" when not finite. For tables.

@@ -145,16 +145,9 @@ int runCompare(int argc, char** argv) {
        "size of one panel of the picture, WxH pixels")  //
       ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
   po::variables_map vm;
-  po::store(po::command_line_parser(argc, argv).options(visible).run(), vm);
-  po::notify(vm);
-  if (vm.count("help")) {
-    std::cout << kCompareUsage << "\n" << visible;
-    return 0;
-  }
-  if (vm["quiet"].as<bool>()) setQuiet(true);
-  if (!vm.count("input")) throw UsageError("compare: missing -i MESH (see diffreg compare --help)");
-  if (!vm.count("handles"))
-    throw UsageError("compare: missing --handles H.json (see diffreg compare --help)");
+  if (!parseCommandLine(argc, argv, kCompareUsage, visible, vm)) return 0;
+  requireOption(vm, "input", "compare", "-i MESH");
+  requireOption(vm, "handles", "compare", "--handles H.json");
   int width = 0, height = 0;
   parseSize("compare", vm["size"].as<std::string>(), width, height);
   const Step weightsStep = parseStep(vm["weights"].as<std::string>(), "--weights");

@@ -158,17 +158,9 @@ int runResolution(int argc, char** argv) {
        "needs")  //
       ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
   po::variables_map vm;
-  po::store(po::command_line_parser(argc, argv).options(visible).run(), vm);
-  po::notify(vm);
-  if (vm.count("help")) {
-    std::cout << kResolutionUsage << "\n" << visible;
-    return 0;
-  }
-  if (vm["quiet"].as<bool>()) setQuiet(true);
-  if (!vm.count("input"))
-    throw UsageError("resolution: missing -i MESH (see diffreg resolution --help)");
-  if (!vm.count("handles"))
-    throw UsageError("resolution: missing --handles H.json (see diffreg resolution --help)");
+  if (!parseCommandLine(argc, argv, kResolutionUsage, visible, vm)) return 0;
+  requireOption(vm, "input", "resolution", "-i MESH");
+  requireOption(vm, "handles", "resolution", "--handles H.json");
   const int levelCount = vm["levels"].as<int>();
   if (levelCount < 0 || levelCount > 4)
     throw UsageError("resolution: --levels " + std::to_string(levelCount) +

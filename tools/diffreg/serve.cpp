@@ -44,14 +44,8 @@ int runServe(int argc, char** argv) {
       ("web", po::value<std::string>(), "directory of the page (default: the built-in one)")  //
       ("quiet,q", po::bool_switch(), "no warnings on stderr");
   po::variables_map vm;
-  po::store(po::command_line_parser(argc, argv).options(visible).run(), vm);
-  po::notify(vm);
-  if (vm.count("help")) {
-    std::cout << kServeUsage << "\n" << visible;
-    return 0;
-  }
-  if (vm["quiet"].as<bool>()) setQuiet(true);
-  if (!vm.count("input")) throw UsageError("serve: missing -i MESH (see diffreg serve --help)");
+  if (!parseCommandLine(argc, argv, kServeUsage, visible, vm)) return 0;
+  requireOption(vm, "input", "serve", "-i MESH");
   const int port = vm["port"].as<int>();
   if (port < 0 || port > 65535)
     throw UsageError("serve: --port " + std::to_string(port) + " is outside [0, 65535]");
