@@ -24,24 +24,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::random_device rd;
-    path = fs::temp_directory_path() / ("diffreg-filter-render-" + std::to_string(rd()));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::permissions(path, fs::perms::owner_all, fs::perm_options::add, ec);
-    fs::remove_all(path, ec);
-  }
-  int entries() const {
-    return static_cast<int>(std::distance(fs::directory_iterator(path), fs::directory_iterator()));
-  }
-  std::string operator/(const std::string& name) const { return (path / name).string(); }
-};
-
 /// The bar bent with diffused weights and non-uniform regularization (README's example).
 Document bentBar() {
   Document doc = Document::load(shipped("bar.obj"), shipped("bar-bend.json"));

@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/IO/MeshIO.hh>
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -16,29 +18,10 @@
 #include <sstream>
 
 using namespace diffreg;
+using namespace diffreg::testing;
 namespace fs = std::filesystem;
 
 namespace {
-
-/// A fresh directory under the system temp dir, removed at the end of the test.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "diffreg-mesh-io-XXXXXX").string();
-    REQUIRE(mkdtemp(tmpl.data()) != nullptr);
-    path = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  std::string file(const std::string& name, const std::string& text) const {
-    const std::string p = (path / name).string();
-    std::ofstream(p) << text;
-    return p;
-  }
-  std::string operator/(const std::string& name) const { return (path / name).string(); }
-};
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

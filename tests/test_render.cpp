@@ -6,6 +6,8 @@
 #include "mesh/shapes.h"
 #include "render/render.h"
 
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -17,26 +19,10 @@
 #include <string>
 
 using namespace diffreg;
+using namespace diffreg::testing;
 namespace fs = std::filesystem;
 
 namespace {
-
-// A fresh, empty directory removed at the end of the test.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::random_device rd;
-    path = fs::temp_directory_path() / ("diffreg-render-test-" + std::to_string(rd()));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  int entries() const {
-    return static_cast<int>(std::distance(fs::directory_iterator(path), fs::directory_iterator()));
-  }
-};
 
 int distance(const Rgb& a, const Rgb& b) {
   int d = 0;

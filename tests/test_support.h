@@ -1,4 +1,5 @@
-// Small helpers the tests share: the shipped meshes, documents built in code, nearest vertices.
+// Small helpers the tests share: the shipped meshes, documents built in code, nearest vertices,
+// scratch directories.
 #pragma once
 
 #include "handles/handles.h"
@@ -6,6 +7,11 @@
 #include "pipeline/document.h"
 
 #include <Eigen/Core>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -33,5 +39,39 @@ inline int nearest(const Mesh& mesh, const Eigen::Vector3d& p) {
     if ((x.row(v).transpose() - p).norm() < (x.row(best).transpose() - p).norm()) best = v;
   return best;
 }
+
+/// A fresh, empty directory under the system's temporary directory, removed (whatever the
+/// permissions a test left on its contents) with the object.
+struct TempDir {
+  std::filesystem::path path;
+  TempDir() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "diffreg-test-XXXXXX").string();
+    if (mkdtemp(pattern.data()) == nullptr)
+      throw std::runtime_error("cannot create a temporary directory");
+    path = pattern;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(path, ec))
+      std::filesystem::permissions(entry.path(), std::filesystem::perms::owner_all,
+                                   std::filesystem::perm_options::add, ec);
+    std::filesystem::remove_all(path, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  /// The path of `name` inside the directory.
+  std::string operator/(const std::string& name) const { return (path / name).string(); }
+  /// Writes `text` to `name` and returns its path.
+  std::string file(const std::string& name, const std::string& text) const {
+    const std::string p = *this / name;
+    std::ofstream(p) << text;
+    return p;
+  }
+  /// Number of entries in the directory.
+  int entries() const {
+    return static_cast<int>(std::distance(std::filesystem::directory_iterator(path),
+                                          std::filesystem::directory_iterator()));
+  }
+};
 
 }  // namespace diffreg::testing
