@@ -2,6 +2,7 @@
 #include "test_deformation_fixtures.h"
 
 #include "deformation/energy.h"
+#include "deformation/residual_model.h"
 
 #include "core/error.h"
 

@@ -3,6 +3,7 @@
 
 #include "deformation/deformer.h"
 #include "deformation/energy.h"
+#include "deformation/residual_model.h"
 #include "deformation/metrics.h"
 #include "discretization/discretization.h"
 #include "mesh/shapes.h"

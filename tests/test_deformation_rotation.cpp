@@ -150,7 +150,7 @@ TEST_CASE("the progress callback sees every iteration's energy", "[deformation][
       DeformationOptions o;
       o.energy = energy;
       o.maxIterations = 8;
-      o.progress = [&](int iteration, double E) { seen.emplace_back(iteration, E); };
+      o.progress = [&](int iteration, double E, double) { seen.emplace_back(iteration, E); };
       const DeformationResult r = deform(*disc, o, handles, targets);
       INFO(toString(kind) << " " << toString(energy));
       REQUIRE(static_cast<int>(seen.size()) == r.iterations);
@@ -177,13 +177,17 @@ TEST_CASE("solveFrom continues from a given shape: a drag needs few iterations",
     CHECK(again.initialGuess == "given");
     CHECK(again.energies.front() == Approx(settled.energies.back()).epsilon(1e-9));
     CHECK(again.energies.back() <= settled.energies.back() * (1 + 1e-12));
-    // A small drag of the moved end: five iterations from the previous shape get a lower
-    // energy than five from the rest shape (or the ASAP guess).
+    // A small drag of the moved end: from the previous shape the run converges in fewer
+    // iterations than from the rest shape (or the ASAP guess). (Both are minima; ARAP can have
+    // several, so the energies need not be equal.)
     s.setTargets(liftFarEnd(targets, 0.05));
-    const DeformationResult warm = s.solveFrom(settled.positions, 5, 0.0);
-    const DeformationResult fresh = s.solve(5, 0.0);
-    INFO("warm " << warm.energies.back() << " fresh " << fresh.energies.back());
-    CHECK(warm.energies.back() < fresh.energies.back());
+    const DeformationResult warm = s.solveFrom(settled.positions, kDefaultIterations,
+                                               kDefaultTolerance);
+    const DeformationResult fresh = s.solve(kDefaultIterations, kDefaultTolerance);
+    INFO("warm " << warm.iterations << " iterations, fresh " << fresh.iterations);
+    CHECK(warm.converged);
+    CHECK(fresh.converged);
+    CHECK(warm.iterations < fresh.iterations);
     CHECK_THROWS_AS(s.solveFrom(Eigen::MatrixXd::Zero(3, disc->dim()), 10, 0.0),
                     InvalidParameter);
     Eigen::MatrixXd bad = settled.positions;

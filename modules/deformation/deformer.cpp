@@ -2,11 +2,31 @@
 
 #include "core/error.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
-#include <limits>
 #include <string>
 
 namespace diffreg {
+
+const char* toString(Acceleration acceleration) {
+  switch (acceleration) {
+    case Acceleration::Lbfgs:
+      return "lbfgs";
+    case Acceleration::Anderson:
+      return "anderson";
+    case Acceleration::None:
+      return "none";
+  }
+  return "?";
+}
+
+Acceleration parseAcceleration(const std::string& name) {
+  for (Acceleration a : {Acceleration::Lbfgs, Acceleration::Anderson, Acceleration::None})
+    if (name == toString(a)) return a;
+  throw InvalidParameter("acceleration: unknown acceleration '" + name +
+                         "' (valid: lbfgs, anderson, none)");
+}
 
 DeformationSession::DeformationSession(const Discretization& disc,
                                        const DeformationOptions& options)
@@ -97,53 +117,37 @@ DeformationResult DeformationSession::solveFrom(const Eigen::MatrixXd& initial, 
   return run(maxIterations, relTolerance, &initial);
 }
 
-DeformationResult DeformationSession::run(int maxIterations, double relTolerance,
-                                          const Eigen::MatrixXd* initial) {
-  if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
-  if (maxIterations < 1)
-    throw InvalidParameter("deformation: iterations = " + std::to_string(maxIterations) +
-                           " must be at least 1");
-  if (!(relTolerance >= 0.0)) throw InvalidParameter("deformation: tolerance must be non-negative");
-  const RegularizationWeights& w = system_.weights();
-  // The local step at X: t_ fitted to X, residuals e_ and the energy, in one pass.
-  auto energyAt = [&](const Eigen::MatrixXd& X) {
-    const double E = model_.fit(X, w, t_, e_);
-    if (!std::isfinite(E))
-      throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
-    return E;
-  };
-  auto report = [&](int iteration, double E) {
-    if (options_.progress) options_.progress(iteration, E);
-  };
-
+Eigen::MatrixXd DeformationSession::restSolve() {
   // The rest targets and their right-hand side change only with the weights: every handle move
   // starts from them (the first global step of the iterative energies, the only one of the
   // linear energies).
-  auto restSolve = [&]() {
-    if (restTargets_.size() == 0) model_.targets(disc_.rest(), restTargets_);
-    if (restRhs_.size() == 0) system_.rightHandSide(restTargets_, restRhs_);
-    return system_.solveRightHandSide(restRhs_, targets_);
-  };
+  if (restTargets_.size() == 0) model_.targets(disc_.rest(), restTargets_);
+  if (restRhs_.size() == 0) system_.rightHandSide(restTargets_, restRhs_);
+  return system_.solveRightHandSide(restRhs_, targets_);
+}
 
-  DeformationResult result;
-  if (!model_.iterative()) {
-    result.positions = restSolve();
-    result.energies.push_back(energyAt(result.positions));
-    result.iterations = 1;
-    report(1, result.energies.back());
-    return result;
-  }
+double DeformationSession::local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
+  const double E = localStep(model_, system_.regularizer(), options_.localStep, X, t, e, F_);
+  if (!std::isfinite(E))
+    throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
+  return E;
+}
 
-  // Initial local step: the rotations of the rest shape (identities, fitted once per session),
-  // or those of the regularized ASAP solution.
-  Eigen::MatrixXd X;
-  const Eigen::MatrixXd* t = &t_;
-  double E = std::numeric_limits<double>::infinity();
+void DeformationSession::report(const DeformationResult& result) const {
+  if (options_.progress)
+    options_.progress(result.iterations, result.energies.back(), result.criterion);
+}
+
+double DeformationSession::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X,
+                                 DeformationResult& result) {
+  t_.resize(0, 0);  // the first local step fits every target to its own element first
   if (initial) {
-    X = *initial;
+    // The given shape's targets, then one global step: it puts the handles at their targets,
+    // so that every later iterate has the fixed values the descent keeps.
     result.initialGuess = "given";
-    E = energyAt(X);  // also fits t_ to X
-    result.energies.push_back(E);
+    result.energies.push_back(local(*initial, t_, e_));
+    X = system_.solve(t_, targets_);
+    result.iterations = 1;
   } else if (initSystem_ && initSystem_->singularity().empty()) {
     if (initRhs_.size() == 0) {
       Eigen::MatrixXd t0;
@@ -152,26 +156,175 @@ DeformationResult DeformationSession::run(int maxIterations, double relTolerance
     }
     X = initSystem_->solveRightHandSide(initRhs_, targets_);
     result.initialGuess = "asap";
-    E = energyAt(X);  // also fits t_ to X
-    result.energies.push_back(E);
   } else {
-    t = nullptr;  // the first global step is the rest solve
+    // The rest shape's targets (identities): the first global step is the rest solve.
+    X = restSolve();
+    result.iterations = 1;
   }
-  result.converged = false;
-  for (int it = 0; it < maxIterations; ++it) {
-    X = t ? system_.solve(*t, targets_) : restSolve();
-    t = &t_;
+  const double E = local(X, t_, e_);
+  result.energies.push_back(E);
+  if (result.iterations > 0) report(result);
+  return E;
+}
+
+void DeformationSession::iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X,
+                                          double E, DeformationResult& result) {
+  while (result.iterations < maxIterations) {
+    X = system_.solve(t_, targets_);
     const double previous = E;
-    E = energyAt(X);
+    E = local(X, t_, e_);
     result.energies.push_back(E);
     ++result.iterations;
-    report(result.iterations, E);
-    if (std::isfinite(previous) && std::abs(previous - E) <= relTolerance * previous) {
+    result.criterion = std::abs(previous - E) / previous;
+    report(result);
+    if (std::abs(previous - E) <= tolerance * previous) {
       result.converged = true;
-      break;
+      return;
     }
   }
+}
+
+void DeformationSession::descend(int maxIterations, double tolerance, Eigen::MatrixXd& X,
+                                 double E, DeformationResult& result) {
+  AndersonMixer mixer(std::max(1, options_.history));
+  const bool accelerate = options_.acceleration == Acceleration::Anderson;
+  Eigen::MatrixXd plainT, plainE, mixed, mixedT, mixedE;
+  while (result.iterations < maxIterations) {
+    // The plain step: the global step for the current targets, then the local step. Both are
+    // exact minimizers, so its energy is at most E; how much lower is the criterion.
+    Eigen::MatrixXd plain = system_.solve(t_, targets_);
+    plainT = t_;
+    const double plainEnergy = local(plain, plainT, plainE);
+    result.criterion = E > 0.0 ? std::max(0.0, (E - plainEnergy) / E) : 0.0;
+    // The Anderson step, taken only when it ends lower than E (the safeguard).
+    bool takeMixed = false;
+    double mixedEnergy = plainEnergy;
+    if (accelerate && mixer.mix(X, plain, mixed)) {
+      mixedT = t_;
+      mixedEnergy = local(mixed, mixedT, mixedE);
+      takeMixed = mixedEnergy < E;
+    }
+    if (takeMixed) {
+      X.swap(mixed);
+      t_.swap(mixedT);
+      e_.swap(mixedE);
+      E = mixedEnergy;
+      ++result.accelerated;
+    } else {
+      X.swap(plain);
+      t_.swap(plainT);
+      e_.swap(plainE);
+      E = plainEnergy;
+    }
+    result.energies.push_back(E);
+    ++result.iterations;
+    report(result);
+    if (result.criterion <= tolerance) {
+      result.converged = true;
+      return;
+    }
+  }
+}
+
+double DeformationSession::plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
+  X = system_.solve(t, targets_);
+  return local(X, t, e);
+}
+
+Eigen::MatrixXd DeformationSession::gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t) {
+  Eigen::MatrixXd b;
+  system_.rightHandSide(t, b);
+  Eigen::MatrixXd g = system_.matrix() * X;
+  g -= b;
+  system_.zeroFixed(g);
+  return g;
+}
+
+void DeformationSession::descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X,
+                                      double E, DeformationResult& result) {
+  constexpr double kArmijo = 1e-4;
+  constexpr int kBacktracks = 6;
+  LbfgsHistory history(std::max(1, options_.history));
+  const double scale = 2.0 * model_.energyScale();  // grad E = scale (A X - C t)
+  const auto initial = [this](const Eigen::MatrixXd& q) { return system_.applyInverse(q); };
+  Eigen::MatrixXd g = gradient(X, t_), trial, trialT, trialE;
+  auto accept = [&](double energy) {
+    const double decrease = E > 0.0 ? std::max(0.0, (E - energy) / E) : 0.0;
+    Eigen::MatrixXd gNew = gradient(trial, trialT);
+    history.add(trial - X, gNew - g);
+    X.swap(trial);
+    t_.swap(trialT);
+    e_.swap(trialE);
+    g.swap(gNew);
+    E = energy;
+    result.energies.push_back(E);
+    ++result.iterations;
+    return decrease;
+  };
+  while (result.iterations < maxIterations) {
+    Eigen::MatrixXd d = history.direction(g, initial);
+    double slope = scale * d.cwiseProduct(g).sum();
+    if (!(slope < 0.0)) {  // not a descent direction: start the history again
+      history.reset();
+      d = -initial(g);
+      slope = scale * d.cwiseProduct(g).sum();
+    }
+    // Backtracking line search on the energy after the local step (Armijo); without history
+    // the full step is the plain global step.
+    double alpha = 1.0, energy = E;
+    bool found = false;
+    for (int i = 0; i < kBacktracks && !found; ++i, alpha *= 0.5) {
+      trial = X + alpha * d;
+      trialT = t_;
+      energy = local(trial, trialT, trialE);
+      found = energy <= E + kArmijo * alpha * slope;
+    }
+    if (found && history.size() > 0) ++result.accelerated;
+    if (!found) {  // the plain step, a descent by construction
+      history.reset();
+      trialT = t_;
+      energy = plainStep(trial, trialT, trialE);
+    }
+    result.criterion = accept(energy);
+    if (result.criterion <= tolerance && result.iterations < maxIterations) {
+      // Stationarity is decided by a plain step: what one more local/global iteration gains.
+      trialT = t_;
+      result.criterion = accept(plainStep(trial, trialT, trialE));
+      if (result.criterion <= tolerance) result.converged = true;
+    }
+    report(result);
+    if (result.converged) return;
+  }
+}
+
+DeformationResult DeformationSession::run(int maxIterations, double relTolerance,
+                                          const Eigen::MatrixXd* initial) {
+  if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
+  if (maxIterations < 1)
+    throw InvalidParameter("deformation: iterations = " + std::to_string(maxIterations) +
+                           " must be at least 1");
+  if (!(relTolerance >= 0.0)) throw InvalidParameter("deformation: tolerance must be non-negative");
+  const auto begin = std::chrono::steady_clock::now();
+  DeformationResult result;
+  Eigen::MatrixXd X;
+  if (!model_.iterative()) {
+    X = restSolve();
+    result.energies.push_back(local(X, t_, e_));
+    result.iterations = 1;
+    report(result);
+  } else {
+    result.converged = false;
+    const double E = start(initial, X, result);
+    if (options_.localStep == LocalStep::Reference)
+      iterateReference(maxIterations, relTolerance, X, E, result);
+    else if (options_.acceleration == Acceleration::Lbfgs)
+      descendLbfgs(maxIterations, relTolerance, X, E, result);
+    else
+      descend(maxIterations, relTolerance, X, E, result);
+  }
   result.positions = std::move(X);
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   return result;
 }
 

@@ -5,7 +5,10 @@
 //   setTargets                          -> right-hand side only
 #pragma once
 
+#include "deformation/anderson.h"
 #include "deformation/energy.h"
+#include "deformation/lbfgs.h"
+#include "deformation/local_step.h"
 #include "deformation/system.h"
 #include "solver/solver.h"
 
@@ -16,13 +19,42 @@
 
 namespace diffreg {
 
+/// How the iterative energies' local/global iterations are sped up.
+enum class Acceleration {
+  None,      ///< plain local/global
+  Lbfgs,     ///< L-BFGS in the positions, the system matrix as initial Hessian, line search
+  Anderson,  ///< Anderson acceleration of the positions with an energy safeguard
+};
+const char* toString(Acceleration acceleration);
+/// "lbfgs", "anderson" or "none". \throw InvalidParameter for any other name, listing the valid ones.
+Acceleration parseAcceleration(const std::string& name);
+
+/// The default stationarity tolerance of the exact local step: a run stops when one plain
+/// local/global iteration from its shape would lower the energy by less than this fraction.
+/// Plain iterations lower the energy less and less, so 30 of them then lower it by less than
+/// 30 times this (3e-6 relative).
+constexpr double kDefaultTolerance = 1e-7;
+/// The default cap on the iterations; converged runs stay far below it.
+constexpr int kDefaultIterations = 5000;
+
 struct DeformationOptions {
   Energy energy = Energy::Arap;
   Regularization regularization = Regularization::None;
-  double beta = 0.0;           ///< uniform beta
-  Eigen::VectorXd weights;     ///< per-vertex weights in [0, 1] for nonuniform
-  int maxIterations = 50;      ///< local/global iterations (ARAP, ASAP in 3D)
-  double relTolerance = 1e-6;  ///< stop when the energy drops by less than this fraction
+  double beta = 0.0;        ///< uniform beta
+  Eigen::VectorXd weights;  ///< per-vertex weights in [0, 1] for nonuniform
+  /// Exact (block coordinate descent on eq. 3, the default) or the reference code's local step.
+  LocalStep localStep = LocalStep::Exact;
+  /// L-BFGS (the default), Anderson or none. The reference local step is never accelerated
+  /// (it is not a descent method, so no line search or safeguard can hold on to its energy).
+  Acceleration acceleration = Acceleration::Lbfgs;
+  int history = 8;  ///< L-BFGS pairs, or earlier iterates Anderson combines
+  /// Cap on the local/global iterations (ARAP, ASAP in 3D).
+  int maxIterations = kDefaultIterations;
+  /// Exact local step: stop when one plain local/global iteration from the current shape would
+  /// lower the energy by less than this fraction of it (the stationarity criterion,
+  /// DeformationResult::criterion). Reference local step: stop when an iteration changes the
+  /// energy by less than this fraction.
+  double relTolerance = kDefaultTolerance;
   SolverBackend backend = defaultSolverBackend();
   /// Keep the regularizer's couplings in the system's sparsity pattern while the regularization
   /// is none, so that a later setBeta / setWeights costs a numeric factorization only (paper
@@ -30,19 +62,28 @@ struct DeformationOptions {
   /// smaller system (about half the factorization time on surfaces), and its first
   /// regularization then costs one symbolic analysis more.
   bool reserveRegularization = true;
-  /// Called after every global step with the 1-based iteration count and the energy
-  /// (DeformationResult::energies); linear energies report one step. Exceptions propagate.
-  std::function<void(int iteration, double energy)> progress;
+  /// Called after every iteration with its 1-based count, the energy
+  /// (DeformationResult::energies) and the stopping criterion's value; linear energies report
+  /// one step. Exceptions propagate.
+  std::function<void(int iteration, double energy, double criterion)> progress;
 };
 
 struct DeformationResult {
   Eigen::MatrixXd positions;  ///< n x d (planar: 2 columns)
-  /// Total regularized energy (energy.h, ResidualModel::energy) after each global step, with
-  /// the rotations refitted to the positions; preceded by the energy of the ASAP initial guess
-  /// when one is used. Linear energies: one value, at the solution.
+  /// Total regularized energy (ResidualModel::energy) after each iteration, with the targets of
+  /// its local step; preceded by the energy of the initial guess when one is used (ASAP or
+  /// given). Linear energies: one value, at the solution. With the exact local step the values
+  /// never rise.
   std::vector<double> energies;
-  int iterations = 0;     ///< global steps taken
-  bool converged = true;  ///< relative energy change fell below the tolerance
+  int iterations = 0;     ///< global steps taken (accepted iterations)
+  bool converged = true;  ///< the criterion fell below the tolerance within the cap
+  /// The stopping criterion at the end: exact local step, the fraction of the energy one more
+  /// plain iteration would remove (measured at the last iteration); reference, the relative
+  /// energy change of the last iteration; 0 for the linear energies.
+  double criterion = 0.0;
+  /// Iterations whose Anderson step was taken (the others took the plain step).
+  int accelerated = 0;
+  double seconds = 0.0;  ///< wall time of the solve
   /// Where the first local step takes its rotations: "rest" (identities, so the first global
   /// step is the Dirichlet solve) or "asap" (the regularized ASAP solution, used by ARAP on
   /// planar meshes when every component has 2 distinct handle points) or "given" (solveFrom).
@@ -93,6 +134,22 @@ class DeformationSession {
  private:
   // solve() (initial = nullptr) and solveFrom().
   DeformationResult run(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial);
+  // The first shape of the iterative energies and its local step (t_, e_, the energy).
+  double start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X, DeformationResult& result);
+  // Local/global from there: descent (exact local step) or the reference loop.
+  void descend(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
+               DeformationResult& result);
+  void descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
+                    DeformationResult& result);
+  // The plain step from (X, t_): global, then local. Returns its energy (at most the current).
+  double plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e);
+  // The energy gradient's direction A X - C t on the free unknowns (0 on the fixed ones).
+  Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t);
+  void iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
+                        DeformationResult& result);
+  Eigen::MatrixXd restSolve();
+  double local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e);
+  void report(const DeformationResult& result) const;
   const Discretization& disc_;
   DeformationOptions options_;
   ResidualModel model_;
@@ -103,6 +160,7 @@ class DeformationSession {
   std::vector<int> handles_;
   Eigen::MatrixXd targets_;
   Eigen::MatrixXd t_, e_;        // targets and residuals, reused across iterations
+  Eigen::MatrixXd F_;            // stacked L_k x_k of the local step, scratch
   Eigen::MatrixXd restTargets_;  // targets fitted to the rest shape (first local step), cached
   Eigen::MatrixXd restRhs_;      // C restTargets_ for the current weights (empty: not yet)
   Eigen::MatrixXd initRhs_;      // the same for the ASAP initial guess's system

@@ -2,7 +2,7 @@
 // of a discretization, an energy and positions, usable outside any pipeline.
 #pragma once
 
-#include "deformation/energy.h"
+#include "deformation/residual_model.h"
 
 #include <Eigen/Core>
 #include <optional>

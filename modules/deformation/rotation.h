@@ -4,6 +4,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <Eigen/LU>
 #include <Eigen/SVD>
 #include <cmath>
 
@@ -107,6 +109,36 @@ inline bool polarRotation3(const Eigen::Matrix3d& F, Eigen::Matrix3d& R, double&
     }
   }
   return false;
+}
+
+/// The proper rotation R closest to C (d = 3, tets; or the tangent-plane target of a surface
+/// element with unit rest normal `normal`: T = R P, P = I - n n^T) and `trace` = tr(T^T C).
+/// Surfaces: T = Q [t1 t2]^T with Q the polar factor of M = [C t1, C t2] for a tangent frame
+/// (t1, t2), which maximizes tr(T^T C) for any C (C n need not vanish); closed form, with the
+/// thin SVD of M when M is (nearly) degenerate. Tets: the polar Newton iteration, with the SVD
+/// for inverted or nearly singular C.
+inline Eigen::Matrix3d rotationTarget(const Eigen::Matrix3d& C, const Eigen::Vector3d* normal,
+                                      double& trace) {
+  Eigen::Matrix3d T;
+  if (normal) {
+    if (tangentRotation(C, *normal, T, trace)) return T;
+    const Eigen::Vector3d& n = *normal;
+    Eigen::Matrix<double, 3, 2> frame;
+    const Eigen::Vector3d helper =
+        std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    frame.col(0) = n.cross(helper).normalized();
+    frame.col(1) = n.cross(frame.col(0));
+    const Eigen::MatrixXd M = C * frame;  // dynamic: thin factors of a 3 x 2 matrix
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(M, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    T = svd.matrixU() * svd.matrixV().transpose() * frame.transpose();
+    trace = svd.singularValues().sum();
+    return T;
+  }
+  if (polarRotation3(C, T, trace)) return T;
+  Eigen::Vector3d sigma;
+  T = closestRotation<3>(C, sigma);
+  trace = sigma.sum();
+  return T;
 }
 
 }  // namespace diffreg

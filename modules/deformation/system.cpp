@@ -18,7 +18,10 @@ constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2,
 
 RegularizedSystem::RegularizedSystem(const ResidualModel& model, SolverBackend backend,
                                      bool reserveCouplings)
-    : model_(model), reserveCouplings_(reserveCouplings), solver_(backend) {
+    : model_(model),
+      regularizer_(model.discretization()),
+      reserveCouplings_(reserveCouplings),
+      solver_(backend) {
   buildTopology();
   setWeights(makeRegularizationWeights(model.discretization(), Regularization::None, 0.0));
 }
@@ -29,29 +32,8 @@ void RegularizedSystem::setHandles(const std::vector<int>& vertices) {
 }
 
 void RegularizedSystem::setWeights(const RegularizationWeights& weights) {
-  const Discretization& disc = model_.discretization();
-  const auto& facets = disc.facets();
-  const double ell = disc.meanEdgeLength();
-  weights_ = weights;
-  elementWeight_ = (1.0 - weights.element.array()) * disc.measures().array();
-  facetWeight_.resize(static_cast<Eigen::Index>(facets.size()));
-  hasFacetWeights_ = false;
-  for (size_t f = 0; f < facets.size(); ++f) {
-    const double w = ell * weights.facet(static_cast<Eigen::Index>(f)) * facets[f].c;
-    facetWeight_(static_cast<Eigen::Index>(f)) = w;
-    if (w != 0.0) hasFacetWeights_ = true;
-  }
-  // Per element, its facets' other elements and weights, in elementFacets_ order (for the
-  // right-hand side with facet weights).
-  neighbour_.resize(hasFacetWeights_ ? elementFacets_.size() : 0);
-  neighbourWeight_.resize(neighbour_.size());
-  for (int k = 0; hasFacetWeights_ && k < disc.numElements(); ++k)
-    for (int g = facetStart_[k]; g < facetStart_[k + 1]; ++g) {
-      const int f = elementFacets_[g];
-      neighbour_[g] = facets[f].k == k ? facets[f].l : facets[f].k;
-      neighbourWeight_[g] = facetWeight_(f);
-    }
-  const bool couplings = reserveCouplings_ || hasFacetWeights_ || couplings_;
+  regularizer_.setWeights(weights);
+  const bool couplings = reserveCouplings_ || regularizer_.coupling() || couplings_;
   if (A_.rows() == 0 || couplings != couplings_) buildPattern(couplings);
   assemble();
   matrixDirty_ = true;
@@ -73,26 +55,11 @@ void RegularizedSystem::buildTopology() {
       incidenceElement_[at] = k;
       incidenceLocal_[at] = j;
     }
-  const auto& facets = disc.facets();
-  facetStart_.assign(static_cast<size_t>(m) + 1, 0);
-  for (const Facet& f : facets) {
-    ++facetStart_[static_cast<size_t>(f.k) + 1];
-    ++facetStart_[static_cast<size_t>(f.l) + 1];
-  }
-  for (int k = 0; k < m; ++k) facetStart_[k + 1] += facetStart_[k];
-  elementFacets_.resize(static_cast<size_t>(facetStart_[m]));
-  fill.assign(facetStart_.begin(), facetStart_.end() - 1);
-  for (size_t f = 0; f < facets.size(); ++f) {
-    elementFacets_[fill[facets[f].k]++] = static_cast<int>(f);
-    elementFacets_[fill[facets[f].l]++] = static_cast<int>(f);
-  }
 }
 
 // Column p of A couples p with every unknown of the elements that touch p and, with the
 // facets' couplings, of their neighbours across a facet (the union of a facet's two elements).
 void RegularizedSystem::buildPattern(bool couplings) {
-  const Discretization& disc = model_.discretization();
-  const auto& facets = disc.facets();
   const int u = model_.localSize(), N = model_.numUnknowns();
   std::vector<int> outer(static_cast<size_t>(N) + 1, 0), inner, mark(static_cast<size_t>(N), -1);
   std::vector<int> column;
@@ -112,10 +79,8 @@ void RegularizedSystem::buildPattern(bool couplings) {
       const int k = incidenceElement_[at];
       addElement(k);
       if (!couplings) continue;
-      for (int g = facetStart_[k]; g < facetStart_[k + 1]; ++g) {
-        const Facet& f = facets[elementFacets_[g]];
-        addElement(f.k == k ? f.l : f.k);
-      }
+      for (int g = regularizer_.facetBegin(k); g < regularizer_.facetEnd(k); ++g)
+        addElement(regularizer_.neighbour(g));
     }
     std::sort(column.begin(), column.end());
     inner.insert(inner.end(), column.begin(), column.end());
@@ -149,9 +114,11 @@ void RegularizedSystem::assemble() {
   };
 
   // Elements: (1 - beta_k) a_k L_k^T L_k.
+  const Eigen::VectorXd& elementWeight = regularizer_.elementWeight();
+  const Eigen::VectorXd& facetWeight = regularizer_.facetWeight();
   std::vector<int> ids(static_cast<size_t>(2 * u));
   for (int k = 0; k < m; ++k) {
-    const double w = elementWeight_(k);
+    const double w = elementWeight(k);
     if (w == 0.0) continue;
     for (int j = 0; j < u; ++j) ids[j] = model_.unknown(k, j);
     for (int j = 0; j < u; ++j)
@@ -166,7 +133,7 @@ void RegularizedSystem::assemble() {
   // Facets: ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) over the union of their unknowns.
   std::vector<double> M(static_cast<size_t>(r) * 2 * u);  // r x U, column-major
   for (size_t f = 0; f < facets.size(); ++f) {
-    const double w = facetWeight_(static_cast<Eigen::Index>(f));
+    const double w = facetWeight(static_cast<Eigen::Index>(f));
     if (w == 0.0) continue;
     const Facet& fc = facets[f];
     int U = u;
@@ -199,7 +166,8 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
   const Eigen::Index mr = static_cast<Eigen::Index>(m) * r;
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
   const double* L = model_.locals().data();
-  if (!hasFacetWeights_) {
+  const Eigen::VectorXd& elementWeight = regularizer_.elementWeight();
+  if (!regularizer_.coupling()) {
     // tau_k = w_k t_k: one gather per unknown over its (element, local unknown) pairs.
     parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
       double acc[kMaxBlock];
@@ -212,7 +180,7 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
           for (int col = 0; col < c; ++col) {
             double sum = 0.0;
             for (int a = 0; a < r; ++a) sum += Lj[a] * t(row + a, col);
-            acc[col] += elementWeight_(k) * sum;
+            acc[col] += elementWeight(k) * sum;
           }
         }
         for (int col = 0; col < c; ++col) b(p, col) = acc[col];
@@ -229,14 +197,14 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
     double tau[kMaxBlock];
     for (int k = begin; k < end; ++k) {
       const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
-      const double wk = elementWeight_(k);
+      const double wk = elementWeight(k);
       for (int col = 0; col < c; ++col)
         for (int a = 0; a < r; ++a) {
           const double tk = t(row + a, col);
           double sum = wk * tk;
-          for (int g = facetStart_[k]; g < facetStart_[k + 1]; ++g)
-            sum += neighbourWeight_[g] *
-                   (tk - t(static_cast<Eigen::Index>(neighbour_[g]) * r + a, col));
+          for (int g = regularizer_.facetBegin(k); g < regularizer_.facetEnd(k); ++g)
+            sum += regularizer_.neighbourWeight(g) *
+                   (tk - t(static_cast<Eigen::Index>(regularizer_.neighbour(g)) * r + a, col));
           tau[col * r + a] = sum;
         }
       double* out = contribution_.data() + static_cast<size_t>(k) * block;
@@ -300,14 +268,10 @@ std::string RegularizedSystem::singularity() const {
   const auto& comp = disc.component();
   // What the energy alone pins: translations (1 point), 2D similarities or 2D infinitesimal
   // rotations (2 points), 3D infinitesimal rotations (3 non-collinear points).
-  int base = 0;
-  if (model_.energy() == Energy::Larap)
-    base = disc.kind() == MeshKind::Planar ? 1 : 2;
-  else if (model_.energy() == Energy::Asap && disc.kind() == MeshKind::Planar)
-    base = 1;
+  const int base = model_.energyModel().kernelRank(disc.kind());
   std::vector<bool> hasEnergy(nc, false);
   for (int k = 0; k < disc.numElements(); ++k)
-    if (weights_.element(k) < 1.0) hasEnergy[comp[disc.elements()(k, 0)]] = true;
+    if (regularizer_.weights().element(k) < 1.0) hasEnergy[comp[disc.elements()(k, 0)]] = true;
   std::vector<std::vector<int>> handlesOf(nc);
   for (int v : handles_)
     if (comp[v] >= 0) handlesOf[comp[v]].push_back(v);
@@ -341,8 +305,7 @@ Eigen::MatrixXd RegularizedSystem::solve(const Eigen::MatrixXd& t,
   return solveRightHandSide(b_, handlePositions);
 }
 
-Eigen::MatrixXd RegularizedSystem::solveRightHandSide(const Eigen::MatrixXd& b,
-                                                      const Eigen::MatrixXd& handlePositions) {
+void RegularizedSystem::prepare() {
   const Discretization& disc = model_.discretization();
   const int q = model_.dofsPerVertex();
   if (partitionDirty_ || matrixDirty_) {
@@ -370,6 +333,24 @@ Eigen::MatrixXd RegularizedSystem::solveRightHandSide(const Eigen::MatrixXd& b,
     }
     matrixDirty_ = false;
   }
+}
+
+Eigen::MatrixXd RegularizedSystem::applyInverse(const Eigen::MatrixXd& r) {
+  prepare();
+  const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(solver_.partition().numFixed(), r.cols());
+  return solver_.solve(r, zero);
+}
+
+void RegularizedSystem::zeroFixed(Eigen::MatrixXd& x) {
+  prepare();
+  for (int id : solver_.partition().fixedIds()) x.row(id).setZero();
+}
+
+Eigen::MatrixXd RegularizedSystem::solveRightHandSide(const Eigen::MatrixXd& b,
+                                                      const Eigen::MatrixXd& handlePositions) {
+  const Discretization& disc = model_.discretization();
+  const int q = model_.dofsPerVertex();
+  prepare();
   // Fixed values: handle positions, rest positions of vertices without elements.
   std::vector<int> handleOf(static_cast<size_t>(disc.numVertices()), -1);
   for (size_t i = 0; i < handles_.size(); ++i) handleOf[handles_[i]] = static_cast<int>(i);

@@ -17,7 +17,8 @@
 // beta = 0 the separable matrix is exactly the cotangent stiffness K.
 #pragma once
 
-#include "deformation/energy.h"
+#include "deformation/regularizer.h"
+#include "deformation/residual_model.h"
 #include "solver/solver.h"
 
 #include <string>
@@ -43,7 +44,9 @@ class RegularizedSystem {
   /// New regularization weights: A is reassembled with the same sparsity pattern (zero weights
   /// stay structural), so the next solve refactorizes numerically only (see reserveCouplings).
   void setWeights(const RegularizationWeights& weights);
-  const RegularizationWeights& weights() const { return weights_; }
+  const RegularizationWeights& weights() const { return regularizer_.weights(); }
+  /// The regularizer's weights, incidence and colouring for these weights (the local step's).
+  const Regularizer& regularizer() const { return regularizer_; }
 
   /// Empty when every connected component has enough handle points for this energy and these
   /// weights; otherwise a one-line reason naming the component and what it needs.
@@ -57,6 +60,14 @@ class RegularizedSystem {
   Eigen::MatrixXd solveRightHandSide(const Eigen::MatrixXd& b,
                                      const Eigen::MatrixXd& handlePositions);
 
+  /// x with A_FF x_F = r_F on the free unknowns and 0 on the fixed ones (handles, vertices
+  /// without elements): the inverse of the system matrix on the free subspace, as the initial
+  /// Hessian of the quasi-Newton iteration. Factorizes if needed.
+  /// \throw SingularSystem as solve().
+  Eigen::MatrixXd applyInverse(const Eigen::MatrixXd& r);
+  /// Sets the rows of the fixed unknowns to zero. Factorizes if needed.
+  void zeroFixed(Eigen::MatrixXd& x);
+
   /// The full system matrix A (numUnknowns() square), assembled for the current weights.
   const SparseMatrix& matrix() const { return A_; }
   /// The right-hand side C t (numUnknowns() x model().columns()) for stacked targets t.
@@ -68,20 +79,16 @@ class RegularizedSystem {
   void buildTopology();
   void buildPattern(bool couplings);
   void assemble();
+  // Checks solvability, analyzes and factorizes what changed.
+  void prepare();
 
   const ResidualModel& model_;
-  RegularizationWeights weights_;
+  Regularizer regularizer_;
   std::vector<int> handles_;
   // Per unknown p: the (element, local unknown) pairs that touch it, CSR.
   std::vector<int> incidenceStart_, incidenceElement_, incidenceLocal_;
-  // Per element: its facets, CSR.
-  std::vector<int> facetStart_, elementFacets_;
-  Eigen::VectorXd elementWeight_, facetWeight_;  // (1 - beta_k) a_k and ell beta_kl c_kl
-  bool hasFacetWeights_ = false, reserveCouplings_ = true, couplings_ = false;
+  bool reserveCouplings_ = true, couplings_ = false;
   SparseMatrix A_;
-  // Per element: its facets' other elements and weights (facetStart_ CSR).
-  std::vector<int> neighbour_;
-  std::vector<double> neighbourWeight_;
   mutable std::vector<double> contribution_;  // per element L_k^T tau_k, reused
   Eigen::MatrixXd b_;                         // right-hand side, reused
   EliminatedSolver solver_;

@@ -24,9 +24,11 @@ struct Document {
   /// path to the one to write now. Unset: the path itself. The diffreg tool stages such files
   /// beside their targets, so that a pipeline that fails later leaves none of them behind.
   std::function<std::string(const std::string& path)> outputFile;
-  /// Progress of a long filter: its name, the iteration (1-based) and the energy after it.
-  /// Unset: no progress is reported. Exceptions thrown here end the filter.
-  std::function<void(const std::string& filter, int iteration, double energy)> progress;
+  /// Progress of a long filter: its name, the iteration (1-based), the energy after it and the
+  /// value of its stopping criterion (DeformationResult::criterion). Unset: no progress is
+  /// reported. Exceptions thrown here end the filter.
+  std::function<void(const std::string& filter, int iteration, double energy, double criterion)>
+      progress;
 
   /// outputFile(path) when set, else `path`.
   std::string writePath(const std::string& path) const {

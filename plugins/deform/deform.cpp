@@ -28,10 +28,23 @@ std::vector<ParamSpec> DeformFilter::params() const {
                 "none; uniform (one beta everywhere, eq. 2); nonuniform (per-element beta from "
                 "the vertex weights diffreg:weight, eq. 3; run diffuse_weights first)."),
       floatParam("beta", "0.5", 0.0, 1.0, "Regularization strength for regularization=uniform."),
-      intParam("iterations", "50", 1, 100000,
-               "Maximum local/global iterations (ARAP, and ASAP on surfaces and solids)."),
-      floatParam("tolerance", "1e-6", 0.0, 1.0,
-                 "Stop when an iteration lowers the energy by less than this fraction."),
+      enumParam("local_step", "exact", {"exact", "reference"},
+                "exact: each rotation minimizes the regularized energy with its neighbours "
+                "fixed (coloured Gauss-Seidel), so the energy never rises; reference: each "
+                "rotation fitted to its own element, as the paper's reference code (with "
+                "regularization not a descent method; for reproducing the paper)."),
+      enumParam("acceleration", "lbfgs", {"lbfgs", "anderson", "none"},
+                "lbfgs: quasi-Newton steps with the local/global matrix as initial Hessian and "
+                "a line search on the energy; anderson: Anderson acceleration of the iterates, "
+                "taken only when it lowers the energy; none: plain local/global. Exact local "
+                "step only."),
+      intParam("iterations", std::to_string(kDefaultIterations), 1, 100000,
+               "Cap on the local/global iterations (ARAP, and ASAP on surfaces and solids); "
+               "converged runs stop well before it."),
+      floatParam("tolerance", "1e-7", 0.0, 1.0,
+                 "Stationarity: stop when one more plain local/global iteration would lower the "
+                 "energy by less than this fraction (reference local step: when an iteration "
+                 "changes it by less)."),
   };
 }
 
@@ -52,11 +65,13 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
   options.beta = params.getFloat("beta");
   if (options.regularization == Regularization::Nonuniform)
     options.weights = doc.mesh.vertexScalar(prop::weight);
+  options.localStep = parseLocalStep(params.getString("local_step"));
+  options.acceleration = parseAcceleration(params.getString("acceleration"));
   options.maxIterations = params.getInt("iterations");
   options.relTolerance = params.getFloat("tolerance");
   if (doc.progress)
-    options.progress = [&doc](int iteration, double energy) {
-      doc.progress("deform", iteration, energy);
+    options.progress = [&doc](int iteration, double energy, double criterion) {
+      doc.progress("deform", iteration, energy, criterion);
     };
 
   DeformationSession session(disc, options);
@@ -74,8 +89,13 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
   out.data = {{"energy", toString(options.energy)},
               {"regularization", toString(options.regularization)},
               {"initial_guess", result.initialGuess},
+              {"local_step", toString(options.localStep)},
+              {"acceleration", toString(options.acceleration)},
               {"iterations", result.iterations},
+              {"accelerated_iterations", result.accelerated},
               {"converged", result.converged},
+              {"criterion", result.criterion},
+              {"solve_seconds", result.seconds},
               {"energies", result.energies}};
   if (options.regularization == Regularization::Uniform) out.data["beta"] = options.beta;
   return out;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "deformation/energy.h"
+#include "deformation/residual_model.h"
 #include "discretization/discretization.h"
 #include "pipeline/document.h"
 

@@ -94,6 +94,8 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
       const Discretization restDisc = restDiscretization(doc);
       DeformationOptions options;
       options.energy = parseEnergy(doc.state.at("deform.energy"));
+      options.localStep = parseLocalStep(stateOr(doc, "deform.local_step", "exact"));
+      options.acceleration = parseAcceleration(stateOr(doc, "deform.acceleration", "lbfgs"));
       options.maxIterations = std::stoi(doc.state.at("deform.iterations"));
       options.relTolerance = std::stod(doc.state.at("deform.tolerance"));
       DeformationSession session(restDisc, options);

@@ -88,4 +88,19 @@ PeerTimes runCgalArap(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& t
 /// "Eigen::SparseLU<COLAMDOrdering> (CGAL 5.5 default), spokes-and-rims ARAP".
 std::string cgalDescription();
 
+/// The CGAL peer run for `iterations` single deform(1) steps after preprocess with the targets
+/// set, calling `step(iteration, positions, seconds)` after each with the positions (n x 3) and
+/// the seconds spent in CGAL so far (preprocess excluded; the callback's own time excluded).
+void traceCgalArap(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles,
+                   const std::vector<int>& handles, const Eigen::MatrixXd& targets,
+                   int iterations,
+                   const std::function<void(int, const Eigen::MatrixXd&, double)>& step);
+/// Read + preprocess + `iterations` iterations of the CGAL peer on a mesh file (the one-shot
+/// comparison): returns the wall seconds.
+double cgalOneShot(const std::string& path, const std::vector<int>& handles,
+                   const Eigen::MatrixXd& targets, int iterations);
+
+/// Convergence: iterations and time to a relative energy gap, plain vs accelerated, and CGAL.
+void addConvergenceCases(std::vector<Case>& cases, const Sizes& sizes);
+
 }  // namespace diffreg::bench

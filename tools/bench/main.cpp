@@ -302,6 +302,63 @@ void printPeer(const std::vector<Result>& results, std::ostream& out) {
   b.print(out);
 }
 
+std::string iterationsOrCap(const Result& r, const std::string& key, const std::string& cap) {
+  const double v = r.get(key);
+  if (std::isfinite(v)) return num(v, 0);
+  return "> " + num(r.get(cap), 0);
+}
+
+void printConvergence(const std::vector<Result>& results, std::ostream& out) {
+  Table t({"case", "V", "plain it 1e-3", "ms", "accel. it 1e-3", "ms", "plain it 1e-4", "ms",
+           "accel. it 1e-4", "ms", "plain it 1e-6", "ms", "accel. it 1e-6", "ms",
+           "default: it", "ms", "gap"});
+  Table c({"case", "V", "it 1e-3", "ms", "it 1e-4", "ms", "it 1e-6", "ms", "300 it (ms)"});
+  bool any = false, anyCgal = false;
+  for (const Result& r : results) {
+    if (r.c->group != "converge" || r.medians.empty()) continue;
+    if (r.has("cgal_cap_iterations")) {
+      anyCgal = true;
+      std::vector<std::string> row{caseLabel(r), std::to_string(r.prepared.vertices)};
+      for (const char* g : {"1e-3", "1e-4", "1e-6"}) {
+        row.push_back(iterationsOrCap(r, std::string("cgal_iterations_") + g, "cgal_cap_iterations"));
+        row.push_back(ms(r.get(std::string("cgal_") + g)));
+      }
+      row.push_back(ms(r.get("cgal_300")));
+      c.add(row);
+      continue;
+    }
+    any = true;
+    std::vector<std::string> row{caseLabel(r), std::to_string(r.prepared.vertices)};
+    for (const char* g : {"1e-3", "1e-4", "1e-6"}) {
+      row.push_back(iterationsOrCap(r, std::string("plain_iterations_") + g, "plain_cap_iterations"));
+      row.push_back(ms(r.get(std::string("plain_") + g)));
+      row.push_back(iterationsOrCap(r, std::string("accelerated_iterations_") + g,
+                                    "plain_cap_iterations"));
+      row.push_back(ms(r.get(std::string("accelerated_") + g)));
+    }
+    row.push_back(num(r.get("default_iterations"), 0) +
+                  (r.get("default_converged") > 0.5 ? "" : " (cap)"));
+    row.push_back(ms(r.get("default")));
+    std::ostringstream gap;
+    gap << std::scientific << std::setprecision(1) << r.get("default_gap");
+    row.push_back(gap.str());
+    t.add(row);
+  }
+  if (any) {
+    out << "Convergence: nonuniform/uniform (beta 0.5)/no regularization ARAP, exact local step; "
+           "iterations and ms (after the factorization) until the energy is within 1e-3, 1e-4, "
+           "1e-6 of its minimum (relative), plain local/global vs Anderson-accelerated; "
+           "\"default\" = the run with the default stationarity tolerance, its gap at the end.\n\n";
+    t.print(out);
+  }
+  if (anyCgal) {
+    out << "CGAL's ARAP on the same scenario: iterations and ms (after preprocess) to within the "
+           "gap of the lowest energy it reaches in its iteration cap (its energy measured as our "
+           "per-element ARAP energy of its shapes).\n\n";
+    c.print(out);
+  }
+}
+
 void printMemory(const std::vector<Result>& results, std::ostream& out) {
   const std::vector<std::string> stages{"start",   "mesh",    "discretization",
                                         "weights", "session", "solve"};
@@ -519,6 +576,7 @@ int run(const Options& options) {
   addWeightCases(cases, sizes);
   addDeformationCases(cases, sizes);
   addPeerCases(cases, sizes);
+  addConvergenceCases(cases, sizes);
 
   std::vector<Result> results;
   for (const Case& c : cases)
@@ -542,6 +600,7 @@ int run(const Options& options) {
   printDeformation(results, out);
   printPeer(results, out);
   printMemory(results, out);
+  printConvergence(results, out);
   const nlohmann::json targets = evaluateTargets(results, out);
   int failed = 0;
   for (const Result& r : results) {

@@ -8,6 +8,7 @@
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_deformation.h>
+#include <CGAL/Polygon_mesh_processing/IO/polygon_mesh_io.h>
 #include <CGAL/version.h>
 
 #include <string>
@@ -30,11 +31,11 @@ std::string cgalDescription() {
          "Eigen::SparseLU<COLAMDOrdering> (default solver)";
 }
 
-PeerTimes runCgalArap(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles,
-                      const std::vector<int>& handles, const Eigen::MatrixXd& targets,
-                      int extraIterations) {
+namespace {
+
+SurfaceMesh toSurfaceMesh(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles,
+                          std::vector<VertexIndex>& vertex) {
   SurfaceMesh mesh;
-  std::vector<VertexIndex> vertex;
   vertex.reserve(static_cast<size_t>(positions.rows()));
   for (Eigen::Index i = 0; i < positions.rows(); ++i)
     vertex.push_back(mesh.add_vertex(Point(positions(i, 0), positions(i, 1), positions(i, 2))));
@@ -42,6 +43,25 @@ PeerTimes runCgalArap(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& t
     if (mesh.add_face(vertex[triangles(f, 0)], vertex[triangles(f, 1)], vertex[triangles(f, 2)]) ==
         SurfaceMesh::null_face())
       throw InvalidMesh("CGAL peer: face " + std::to_string(f) + " is not manifold");
+  return mesh;
+}
+
+void setTargets(Deformation& deformation, const std::vector<VertexIndex>& vertex,
+                const std::vector<int>& handles, const Eigen::MatrixXd& targets) {
+  for (size_t i = 0; i < handles.size(); ++i) {
+    const Eigen::Index r = static_cast<Eigen::Index>(i);
+    deformation.set_target_position(vertex[handles[i]],
+                                    Point(targets(r, 0), targets(r, 1), targets(r, 2)));
+  }
+}
+
+}  // namespace
+
+PeerTimes runCgalArap(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles,
+                      const std::vector<int>& handles, const Eigen::MatrixXd& targets,
+                      int extraIterations) {
+  std::vector<VertexIndex> vertex;
+  SurfaceMesh mesh = toSurfaceMesh(positions, triangles, vertex);
 
   PeerTimes times;
   Timer timer;
@@ -66,6 +86,46 @@ PeerTimes runCgalArap(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& t
   times.latency1 = move(1.0, 1);
   times.latencyMore = move(1.5, 1 + static_cast<unsigned>(extraIterations));
   return times;
+}
+
+void traceCgalArap(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles,
+                   const std::vector<int>& handles, const Eigen::MatrixXd& targets,
+                   int iterations,
+                   const std::function<void(int, const Eigen::MatrixXd&, double)>& step) {
+  std::vector<VertexIndex> vertex;
+  SurfaceMesh mesh = toSurfaceMesh(positions, triangles, vertex);
+  Deformation deformation(mesh);
+  deformation.insert_roi_vertices(mesh.vertices().begin(), mesh.vertices().end());
+  for (int v : handles) deformation.insert_control_vertex(vertex[v]);
+  if (!deformation.preprocess()) throw SingularSystem("CGAL peer: preprocess() failed");
+  setTargets(deformation, vertex, handles, targets);
+  Eigen::MatrixXd X(positions.rows(), 3);
+  double seconds = 0.0;
+  for (int it = 1; it <= iterations; ++it) {
+    Timer timer;
+    deformation.deform(1, 0.0);
+    seconds += timer.seconds();
+    for (Eigen::Index i = 0; i < X.rows(); ++i) {
+      const Point& p = mesh.point(vertex[static_cast<size_t>(i)]);
+      X.row(i) << p.x(), p.y(), p.z();
+    }
+    step(it, X, seconds);
+  }
+}
+
+double cgalOneShot(const std::string& path, const std::vector<int>& handles,
+                   const Eigen::MatrixXd& targets, int iterations) {
+  Timer timer;
+  SurfaceMesh mesh;
+  if (!CGAL::IO::read_polygon_mesh(path, mesh)) throw IoError("CGAL peer: cannot read " + path);
+  std::vector<VertexIndex> vertex(mesh.vertices().begin(), mesh.vertices().end());
+  Deformation deformation(mesh);
+  deformation.insert_roi_vertices(mesh.vertices().begin(), mesh.vertices().end());
+  for (int v : handles) deformation.insert_control_vertex(vertex[static_cast<size_t>(v)]);
+  if (!deformation.preprocess()) throw SingularSystem("CGAL peer: preprocess() failed");
+  setTargets(deformation, vertex, handles, targets);
+  deformation.deform(static_cast<unsigned>(iterations), 0.0);
+  return timer.seconds();
 }
 
 }  // namespace diffreg::bench

@@ -79,13 +79,15 @@ StagedOutputs::~StagedOutputs() {
   for (const auto& [tmp, path] : staged_) std::remove(tmp.c_str());
 }
 
-void ProgressPrinter::operator()(const std::string& filter, int iteration, double energy) {
+void ProgressPrinter::operator()(const std::string& filter, int iteration, double energy,
+                                 double criterion) {
   const double now =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   if (now < after_ || (last_ >= 0.0 && now - last_ < 1.0)) return;
   last_ = now;
   std::ostringstream line;
-  line << filter << ": iteration " << iteration << ", energy " << std::setprecision(6) << energy;
+  line << filter << ": iteration " << iteration << ", energy " << std::setprecision(6) << energy
+       << ", criterion " << std::setprecision(2) << criterion;
   info(line.str());
 }
 

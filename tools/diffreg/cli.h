@@ -49,7 +49,7 @@ void checkWritableDir(const std::string& path);
 class ProgressPrinter {
  public:
   explicit ProgressPrinter(double after) : after_(after) {}
-  void operator()(const std::string& filter, int iteration, double energy);
+  void operator()(const std::string& filter, int iteration, double energy, double criterion);
 
  private:
   double after_;

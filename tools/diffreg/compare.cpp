@@ -215,8 +215,9 @@ int runCompare(int argc, char** argv) {
     p.add("deform", values);
     p.add("measure");
     v.result = doc;
-    v.result.progress = [&printer, &v](const std::string& filter, int iteration, double energy) {
-      printer(v.name + " " + filter, iteration, energy);
+    v.result.progress = [&printer, &v](const std::string& filter, int iteration, double energy,
+                                       double criterion) {
+      printer(v.name + " " + filter, iteration, energy, criterion);
     };
     v.report = p.run(v.result);
   }

@@ -138,9 +138,8 @@ int runPipeline(const po::variables_map& vm) {
   StagedOutputs staged;
   doc.outputFile = [&staged](const std::string& path) { return staged.stage(path); };
   ProgressPrinter printer(vm["progress-after"].as<double>());
-  doc.progress = [&printer](const std::string& filter, int iteration, double energy) {
-    printer(filter, iteration, energy);
-  };
+  doc.progress = [&printer](const std::string& filter, int iteration, double energy,
+                            double criterion) { printer(filter, iteration, energy, criterion); };
   const nlohmann::json report = pipeline.run(doc);
 
   for (const auto& output : outputs) writeMesh(staged.stage(output), doc.mesh);

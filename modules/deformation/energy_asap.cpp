@@ -1,0 +1,44 @@
+// ASAP: e_k = F_k - closest similarity. Planar: linear, the residual removes span{I, J} from
+// vec(F) (coupled layout), so 2 distinct handle points pin it. Surfaces and tets: s_k R_k with
+// the rotation of ARAP and the best scale, local/global.
+#include "deformation/energy.h"
+#include "deformation/rotation.h"
+
+namespace diffreg {
+
+namespace {
+
+Eigen::VectorXd vec2(const Eigen::Matrix2d& M) {
+  return (Eigen::VectorXd(4) << M(0, 0), M(0, 1), M(1, 0), M(1, 1)).finished();
+}
+
+class Asap final : public EnergyModel {
+ public:
+  Energy id() const override { return Energy::Asap; }
+  bool iterative(MeshKind kind) const override { return kind != MeshKind::Planar; }
+  bool coupled(MeshKind kind) const override { return kind == MeshKind::Planar; }
+  int kernelRank(MeshKind kind) const override { return kind == MeshKind::Planar ? 1 : 0; }
+  std::vector<Eigen::VectorXd> removedModes(const Eigen::MatrixXd&, MeshKind) const override {
+    Eigen::Matrix2d J;
+    J << 0, -1, 1, 0;
+    return {vec2(Eigen::Matrix2d::Identity()), vec2(J)};
+  }
+  // min over s, R of weight s^2 |R|^2 - 2 s tr(R^T C): R the rotation fit to C and
+  // s = tr(R^T C) / (weight |R|^2), |R|^2 = 2 on surfaces (tangent plane), 3 on tets.
+  Eigen::Matrix3d fit(const Eigen::Matrix3d& C, double weight,
+                      const Eigen::Vector3d* normal) const override {
+    double trace = 0.0;
+    const Eigen::Matrix3d R = rotationTarget(C, normal, trace);
+    const double norm2 = normal ? 2.0 : 3.0;
+    return R * (trace / (weight * norm2));
+  }
+};
+
+}  // namespace
+
+const EnergyModel& asapEnergy() {
+  static const Asap model;
+  return model;
+}
+
+}  // namespace diffreg

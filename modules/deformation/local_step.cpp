@@ -1,0 +1,84 @@
+#include "deformation/local_step.h"
+
+#include "core/error.h"
+#include "deformation/parallel.h"
+
+#include <algorithm>
+
+namespace diffreg {
+
+namespace {
+
+constexpr int kGrain = 1024;  // elements per parallel chunk
+
+// One colour of the exact sweep: T_k = fit(C_k, weight) for its elements.
+void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::vector<int>& ids,
+                 const Eigen::MatrixXd& F, Eigen::MatrixXd& t) {
+  const int d = model.rows();  // separable layout: d x d blocks
+  const Eigen::VectorXd& wk = reg.elementWeight();
+  parallel::forChunks(static_cast<int>(ids.size()), kGrain, [&](int, int begin, int end) {
+    double Ct[9];
+    for (int i = begin; i < end; ++i) {
+      const int k = ids[static_cast<size_t>(i)];
+      const Eigen::Index row = static_cast<Eigen::Index>(k) * d;
+      double weight = wk(k);
+      for (int a = 0; a < d; ++a)
+        for (int b = 0; b < d; ++b) Ct[a * d + b] = wk(k) * F(row + a, b);
+      for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
+        const double w = reg.neighbourWeight(g);
+        if (w == 0.0) continue;
+        weight += w;
+        const Eigen::Index other = static_cast<Eigen::Index>(reg.neighbour(g)) * d;
+        for (int a = 0; a < d; ++a)
+          for (int b = 0; b < d; ++b)
+            Ct[a * d + b] += w * (F(row + a, b) - F(other + a, b) + t(other + a, b));
+      }
+      if (!(weight > 0.0)) {  // no energy on this element: any target; keep the plain fit
+        weight = 1.0;
+        for (int a = 0; a < d; ++a)
+          for (int b = 0; b < d; ++b) Ct[a * d + b] = F(row + a, b);
+      }
+      model.fitElement(Ct, weight, k, t);
+    }
+  });
+}
+
+}  // namespace
+
+const char* toString(LocalStep step) {
+  return step == LocalStep::Exact ? "exact" : "reference";
+}
+
+LocalStep parseLocalStep(const std::string& name) {
+  if (name == "exact") return LocalStep::Exact;
+  if (name == "reference") return LocalStep::Reference;
+  throw InvalidParameter("local_step: unknown local step '" + name +
+                         "' (valid: exact, reference)");
+}
+
+double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep step,
+                 const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e,
+                 Eigen::MatrixXd& F) {
+  model.gradients(X, F);
+  const bool sweep = model.iterative() && step == LocalStep::Exact && reg.coupling();
+  if (!sweep || t.rows() != F.rows() || t.cols() != F.cols()) {
+    // Linear energies, the reference step, and the exact step without coupling (C_k = w_k F_k):
+    // every target fitted to its own element. Without previous targets the sweeps start there.
+    model.fitTargets(F, t);
+  } else {
+    // Start from the previous targets or from the per-element fit, whichever is lower: the
+    // sweeps then lower the energy further, so the step never raises it, and the per-element
+    // fit brings the rotations along at once where the shape has turned.
+    Eigen::MatrixXd fitted;
+    model.fitTargets(F, fitted);
+    if (model.energy(F - fitted, reg.weights()) < model.energy(F - t, reg.weights()))
+      t.swap(fitted);
+  }
+  if (sweep)
+    for (int i = 0; i < kLocalSweeps; ++i)
+      for (const std::vector<int>& ids : reg.colours()) sweepColour(model, reg, ids, F, t);
+  e = F - t;
+  return model.energy(e, reg.weights());
+}
+
+}  // namespace diffreg

@@ -1,0 +1,109 @@
+#include "deformation/regularizer.h"
+
+#include "core/error.h"
+
+#include <string>
+
+namespace diffreg {
+
+RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regularization mode,
+                                                double beta, const Eigen::VectorXd& x) {
+  const int m = disc.numElements();
+  const auto& facets = disc.facets();
+  const int nf = static_cast<int>(facets.size());
+  RegularizationWeights w;
+  switch (mode) {
+    case Regularization::None:
+      w.element.setZero(m);
+      w.facet.setZero(nf);
+      break;
+    case Regularization::Uniform:
+      if (!(beta >= 0.0 && beta <= 1.0))
+        throw InvalidParameter("regularization: beta = " + std::to_string(beta) +
+                               " is outside [0, 1]");
+      w.element.setConstant(m, beta);
+      w.facet.setConstant(nf, beta);
+      break;
+    case Regularization::Nonuniform: {
+      if (x.size() != disc.numVertices())
+        throw InvalidParameter("regularization: " + std::to_string(x.size()) +
+                               " vertex weights for a mesh of " +
+                               std::to_string(disc.numVertices()) + " vertices");
+      for (int i = 0; i < x.size(); ++i)
+        if (!(x(i) >= 0.0 && x(i) <= 1.0))
+          throw InvalidParameter("regularization: the weight of vertex " + std::to_string(i) +
+                                 " is " + std::to_string(x(i)) + ", outside [0, 1]");
+      const Eigen::MatrixXi& el = disc.elements();
+      w.element.resize(m);
+      for (int k = 0; k < m; ++k) {
+        double sum = 0.0;
+        for (int i = 0; i < el.cols(); ++i) sum += x(el(k, i));
+        w.element(k) = sum / static_cast<double>(el.cols());
+      }
+      w.facet.resize(nf);
+      for (int f = 0; f < nf; ++f) {
+        double sum = 0.0;
+        for (int i = 0; i < facets[f].size; ++i) sum += x(facets[f].vertices[i]);
+        w.facet(f) = sum / static_cast<double>(facets[f].size);
+      }
+      break;
+    }
+  }
+  return w;
+}
+
+Regularizer::Regularizer(const Discretization& disc) : disc_(disc) {
+  const int m = disc.numElements();
+  const auto& facets = disc.facets();
+  facetStart_.assign(static_cast<size_t>(m) + 1, 0);
+  for (const Facet& f : facets) {
+    ++facetStart_[static_cast<size_t>(f.k) + 1];
+    ++facetStart_[static_cast<size_t>(f.l) + 1];
+  }
+  for (int k = 0; k < m; ++k) facetStart_[k + 1] += facetStart_[k];
+  elementFacets_.resize(static_cast<size_t>(facetStart_[m]));
+  neighbour_.resize(elementFacets_.size());
+  std::vector<int> fill(facetStart_.begin(), facetStart_.end() - 1);
+  for (size_t f = 0; f < facets.size(); ++f) {
+    const int atK = fill[facets[f].k]++, atL = fill[facets[f].l]++;
+    elementFacets_[atK] = elementFacets_[atL] = static_cast<int>(f);
+    neighbour_[atK] = facets[f].l;
+    neighbour_[atL] = facets[f].k;
+  }
+  setWeights(makeRegularizationWeights(disc, Regularization::None, 0.0));
+}
+
+void Regularizer::setWeights(const RegularizationWeights& weights) {
+  const auto& facets = disc_.facets();
+  const double ell = disc_.meanEdgeLength();
+  weights_ = weights;
+  elementWeight_ = (1.0 - weights.element.array()) * disc_.measures().array();
+  facetWeight_.resize(static_cast<Eigen::Index>(facets.size()));
+  coupling_ = false;
+  for (size_t f = 0; f < facets.size(); ++f) {
+    const double w = ell * weights.facet(static_cast<Eigen::Index>(f)) * facets[f].c;
+    facetWeight_(static_cast<Eigen::Index>(f)) = w;
+    if (w != 0.0) coupling_ = true;
+  }
+}
+
+const std::vector<std::vector<int>>& Regularizer::colours() const {
+  if (!colours_.empty() || disc_.numElements() == 0) return colours_;
+  const int m = disc_.numElements();
+  std::vector<int> colour(static_cast<size_t>(m), -1), taken;
+  for (int k = 0; k < m; ++k) {
+    taken.assign(static_cast<size_t>(facetEnd(k) - facetBegin(k) + 1), 0);
+    for (int g = facetBegin(k); g < facetEnd(k); ++g) {
+      const int c = colour[static_cast<size_t>(neighbour(g))];
+      if (c >= 0 && c < static_cast<int>(taken.size())) taken[static_cast<size_t>(c)] = 1;
+    }
+    int c = 0;
+    while (taken[static_cast<size_t>(c)]) ++c;
+    colour[static_cast<size_t>(k)] = c;
+    if (c >= static_cast<int>(colours_.size())) colours_.resize(static_cast<size_t>(c) + 1);
+    colours_[static_cast<size_t>(c)].push_back(k);
+  }
+  return colours_;
+}
+
+}  // namespace diffreg

@@ -1,0 +1,72 @@
+// The energy-smoothness regularizer of Martinez Esturo et al. (docs/method.md, "The
+// regularizer"): S = sum_(k,l) c_kl ||e_k - e_l||^2 over interior facets, blended with the
+// energy uniformly (eq. 2) or per element and facet (eq. 3):
+//
+//     E = sum_k (1 - beta_k) a_k D_k + sum_(k,l) beta_kl c_kl ||e_k - e_l||^2.
+//
+// This unit owns beta_k and beta_kl, the weights w_k = (1 - beta_k) a_k and
+// w_kl = ell beta_kl c_kl they give (ell the mean rest edge length, so that a_k and c_kl are
+// measured on the mesh scaled to unit mean edge length up to one common factor), the
+// element-facet incidence the coupling assembly walks, and the colouring of the element
+// adjacency graph that the exact local step sweeps.
+#pragma once
+
+#include "deformation/energy.h"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace diffreg {
+
+/// beta_k per element and beta_kl per facet (in the order of Discretization::facets()).
+struct RegularizationWeights {
+  Eigen::VectorXd element;
+  Eigen::VectorXd facet;
+};
+
+/// Regularization weights for a mode: none -> all 0; uniform -> all `beta`; nonuniform ->
+/// beta_k = mean of `vertexWeights` over the element's vertices and beta_kl = mean over the
+/// facet's vertices. `beta` is used only by uniform, `vertexWeights` only by nonuniform.
+/// \throw InvalidParameter for beta outside [0, 1], or vertex weights of the wrong size, not
+/// finite or outside [0, 1] (naming the first bad vertex).
+RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regularization mode,
+                                                double beta,
+                                                const Eigen::VectorXd& vertexWeights = {});
+
+class Regularizer {
+ public:
+  /// Element-facet incidence of `disc` (which must outlive this); no regularization.
+  explicit Regularizer(const Discretization& disc);
+
+  void setWeights(const RegularizationWeights& weights);
+  const RegularizationWeights& weights() const { return weights_; }
+  /// w_k = (1 - beta_k) a_k per element.
+  const Eigen::VectorXd& elementWeight() const { return elementWeight_; }
+  /// w_kl = ell beta_kl c_kl per facet.
+  const Eigen::VectorXd& facetWeight() const { return facetWeight_; }
+  /// True when some facet weight is nonzero: the elements' targets are coupled.
+  bool coupling() const { return coupling_; }
+
+  /// The facets of element k are incidence entries [facetBegin(k), facetEnd(k)).
+  int facetBegin(int k) const { return facetStart_[static_cast<size_t>(k)]; }
+  int facetEnd(int k) const { return facetStart_[static_cast<size_t>(k) + 1]; }
+  /// Incidence entry g: its facet, the element on the other side, and w_kl.
+  int facet(int g) const { return elementFacets_[static_cast<size_t>(g)]; }
+  int neighbour(int g) const { return neighbour_[static_cast<size_t>(g)]; }
+  double neighbourWeight(int g) const { return facetWeight_(elementFacets_[static_cast<size_t>(g)]); }
+
+  /// Elements grouped by colour: no two elements of one colour share a facet, so the exact
+  /// local step may update a colour's elements at once. Greedy, in element order (computed on
+  /// first use; at most 1 + the largest number of facets of an element colours).
+  const std::vector<std::vector<int>>& colours() const;
+
+ private:
+  const Discretization& disc_;
+  RegularizationWeights weights_;
+  Eigen::VectorXd elementWeight_, facetWeight_;
+  bool coupling_ = false;
+  std::vector<int> facetStart_, elementFacets_, neighbour_;
+  mutable std::vector<std::vector<int>> colours_;
+};
+
+}  // namespace diffreg

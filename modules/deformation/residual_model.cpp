@@ -1,0 +1,254 @@
+#include "deformation/residual_model.h"
+
+#include "deformation/parallel.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <vector>
+
+namespace diffreg {
+
+namespace {
+
+constexpr int kGrain = 2048;  // elements (or facets) per parallel chunk
+
+// Frobenius-orthogonal projector I - Q Q^T removing span{basis} (vectors of length d^2).
+Eigen::MatrixXd complementProjector(const std::vector<Eigen::VectorXd>& basis, int size) {
+  Eigen::MatrixXd B(size, static_cast<Eigen::Index>(basis.size()));
+  for (size_t i = 0; i < basis.size(); ++i) B.col(static_cast<Eigen::Index>(i)) = basis[i];
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(B);
+  const Eigen::MatrixXd Q =
+      qr.householderQ() * Eigen::MatrixXd::Identity(size, static_cast<Eigen::Index>(basis.size()));
+  return Eigen::MatrixXd::Identity(size, size) - Q * Q.transpose();
+}
+
+// Sum of per-chunk partial sums in chunk order: the same value for any number of threads.
+template <class Body>
+double chunkedSum(int n, const Body& body) {
+  std::vector<double> partial(static_cast<size_t>(parallel::numChunks(n, kGrain)), 0.0);
+  parallel::forChunks(n, kGrain, [&](int chunk, int begin, int end) {
+    partial[static_cast<size_t>(chunk)] = body(begin, end);
+  });
+  double sum = 0.0;
+  for (double p : partial) sum += p;
+  return sum;
+}
+
+// F_k^T = G_k^T X_k for elements [begin, end) (separable layout, d x d blocks).
+template <int D>
+void gradientRange(const Discretization& disc, const Eigen::MatrixXd& X, Eigen::MatrixXd& F,
+                   int begin, int end) {
+  constexpr int S = D == 2 ? 3 : -1;  // element size known at compile time for planar meshes
+  const int s = S > 0 ? S : disc.elementSize();
+  const Eigen::MatrixXi& el = disc.elements();
+  const Eigen::MatrixXd& grads = disc.gradients();
+  for (int k = begin; k < end; ++k) {
+    Eigen::Matrix<double, D, D> Ft = Eigen::Matrix<double, D, D>::Zero();  // Ft(b, a) = F(a, b)
+    const Eigen::Index g0 = static_cast<Eigen::Index>(k) * s;
+    for (int i = 0; i < s; ++i) {
+      const Eigen::Index v = el(k, i);
+      for (int b = 0; b < D; ++b) {
+        const double g = grads(g0 + i, b);
+        for (int a = 0; a < D; ++a) Ft(b, a) += X(v, a) * g;
+      }
+    }
+    F.block<D, D>(static_cast<Eigen::Index>(k) * D, 0) = Ft;
+  }
+}
+
+}  // namespace
+
+ResidualModel::ResidualModel(const Discretization& disc, Energy energy)
+    : disc_(disc),
+      energy_(diffreg::energyModel(energy)),
+      coupled_(energy_.coupled(disc.kind())),
+      iterative_(energy_.iterative(disc.kind())),
+      dim_(disc.dim()),
+      elementSize_(disc.elementSize()) {
+  const int d = dim_;
+  dofsPerVertex_ = coupled_ ? d : 1;
+  columns_ = coupled_ ? 1 : d;
+  rows_ = coupled_ ? d * d : d;
+  localSize_ = elementSize_ * dofsPerVertex_;
+  const int m = disc.numElements();
+  operators_.resize(static_cast<Eigen::Index>(m) * rows_, localSize_);
+  fixedTargets_.setZero(static_cast<Eigen::Index>(m) * rows_, columns_);
+  const MeshKind kind = disc.kind();
+  for (int k = 0; k < m; ++k) {
+    const auto G = disc.gradient(k);
+    const Eigen::MatrixXd frame = disc.restFrame(k);
+    const Eigen::MatrixXd T = energy_.constantTarget(frame, kind);
+    auto L = operators_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, localSize_);
+    auto t = fixedTargets_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, columns_);
+    if (!coupled_) {
+      L = G.transpose();
+      t = T.transpose();
+      continue;
+    }
+    // B_k: vec(F_k)[a d + b] = sum_i x_(i,a) G(i,b), local unknown i d + a.
+    Eigen::MatrixXd B = Eigen::MatrixXd::Zero(rows_, localSize_);
+    for (int i = 0; i < elementSize_; ++i)
+      for (int a = 0; a < d; ++a)
+        for (int b = 0; b < d; ++b) B(a * d + b, i * d + a) = G(i, b);
+    L = complementProjector(energy_.removedModes(frame, kind), rows_) * B;
+    for (int a = 0; a < d; ++a)
+      for (int b = 0; b < d; ++b) t(a * d + b, 0) = T(a, b);
+  }
+}
+
+int ResidualModel::unknown(int k, int j) const {
+  const int v = disc_.elements()(k, j / dofsPerVertex_);
+  return v * dofsPerVertex_ + j % dofsPerVertex_;
+}
+
+Eigen::MatrixXd ResidualModel::toUnknowns(const Eigen::MatrixXd& P) const {
+  if (!coupled_) return P;
+  Eigen::MatrixXd x(static_cast<Eigen::Index>(P.rows()) * dim_, 1);
+  for (Eigen::Index v = 0; v < P.rows(); ++v)
+    for (int a = 0; a < dim_; ++a) x(v * dim_ + a, 0) = P(v, a);
+  return x;
+}
+
+Eigen::MatrixXd ResidualModel::toPositions(const Eigen::MatrixXd& x) const {
+  if (!coupled_) return x;
+  const Eigen::Index n = x.rows() / dim_;
+  Eigen::MatrixXd P(n, dim_);
+  for (Eigen::Index v = 0; v < n; ++v)
+    for (int a = 0; a < dim_; ++a) P(v, a) = x(v * dim_ + a, 0);
+  return P;
+}
+
+void ResidualModel::gradients(const Eigen::MatrixXd& X, Eigen::MatrixXd& F) const {
+  const Eigen::Index rows = fixedTargets_.rows();
+  if (F.rows() != rows || F.cols() != columns_) F.resize(rows, columns_);
+  if (coupled_) {  // vec(F_k) through B_k: the unprojected operators are not kept, so L_k x_k
+    const Eigen::MatrixXd x = toUnknowns(X);
+    parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
+      Eigen::VectorXd xk(localSize_);
+      for (int k = begin; k < end; ++k) {
+        for (int j = 0; j < localSize_; ++j) xk(j) = x(unknown(k, j), 0);
+        F.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, 1) = local(k) * xk;
+      }
+    });
+    return;
+  }
+  parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
+    if (dim_ == 2)
+      gradientRange<2>(disc_, X, F, begin, end);
+    else
+      gradientRange<3>(disc_, X, F, begin, end);
+  });
+}
+
+void ResidualModel::fitElement(const double* Ct, double weight, int k, Eigen::MatrixXd& t) const {
+  // Ct is the d x d block C_k^T, row-major in the layout's rows (rows_ = d, columns_ = d).
+  const Eigen::Index row = static_cast<Eigen::Index>(k) * dim_;
+  if (dim_ == 2) {
+    Eigen::Matrix2d C;
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b) C(b, a) = Ct[a * 2 + b];
+    t.block<2, 2>(row, 0) = energy_.fit(C, weight).transpose();
+    return;
+  }
+  Eigen::Matrix3d C;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) C(b, a) = Ct[a * 3 + b];
+  const bool surface = disc_.kind() == MeshKind::Surface;
+  const Eigen::Vector3d n = surface ? Eigen::Vector3d(disc_.normals().row(k).transpose())
+                                    : Eigen::Vector3d::Zero();
+  t.block<3, 3>(row, 0) = energy_.fit(C, weight, surface ? &n : nullptr).transpose();
+}
+
+void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) const {
+  if (t.rows() != fixedTargets_.rows() || t.cols() != columns_)
+    t.resize(fixedTargets_.rows(), columns_);
+  if (!iterative_) {
+    t = fixedTargets_;
+    return;
+  }
+  parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
+    double Ct[9];
+    for (int k = begin; k < end; ++k) {
+      for (int a = 0; a < dim_; ++a)
+        for (int b = 0; b < dim_; ++b) Ct[a * dim_ + b] = F(static_cast<Eigen::Index>(k) * dim_ + a, b);
+      fitElement(Ct, 1.0, k, t);
+    }
+  });
+}
+
+void ResidualModel::targets(const Eigen::MatrixXd& X, Eigen::MatrixXd& t) const {
+  if (!iterative_) {
+    t = fixedTargets_;
+    return;
+  }
+  Eigen::MatrixXd F;
+  gradients(X, F);
+  fitTargets(F, t);
+}
+
+void ResidualModel::residuals(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t,
+                              Eigen::MatrixXd& e) const {
+  gradients(X, e);
+  e -= t;
+}
+
+Eigen::MatrixXd ResidualModel::residuals(const Eigen::MatrixXd& X) const {
+  Eigen::MatrixXd t, e;
+  targets(X, t);
+  residuals(X, t, e);
+  return e;
+}
+
+Eigen::VectorXd ResidualModel::distortion(const Eigen::MatrixXd& e) const {
+  const int m = disc_.numElements();
+  Eigen::VectorXd D(m);
+  for (int k = 0; k < m; ++k)
+    D(k) = e.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, columns_).squaredNorm();
+  return D;
+}
+
+Eigen::VectorXd ResidualModel::facetDifference(const Eigen::MatrixXd& e) const {
+  const auto& facets = disc_.facets();
+  Eigen::VectorXd S(static_cast<Eigen::Index>(facets.size()));
+  for (size_t f = 0; f < facets.size(); ++f)
+    S(static_cast<Eigen::Index>(f)) =
+        (e.block(static_cast<Eigen::Index>(facets[f].k) * rows_, 0, rows_, columns_) -
+         e.block(static_cast<Eigen::Index>(facets[f].l) * rows_, 0, rows_, columns_))
+            .squaredNorm();
+  return S;
+}
+
+double ResidualModel::energy(const Eigen::MatrixXd& e, const RegularizationWeights& w) const {
+  const double elementSum = chunkedSum(disc_.numElements(), [&](int begin, int end) {
+    double sum = 0.0;
+    for (int k = begin; k < end; ++k)
+      sum += (1.0 - w.element(k)) * disc_.measures()(k) *
+             e.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, columns_).squaredNorm();
+    return sum;
+  });
+  const auto& facets = disc_.facets();
+  double facetSum = 0.0;
+  if (!facets.empty() && w.facet.size() > 0 && w.facet.cwiseAbs().maxCoeff() > 0.0)
+    facetSum = chunkedSum(static_cast<int>(facets.size()), [&](int begin, int end) {
+      double sum = 0.0;
+      for (int f = begin; f < end; ++f) {
+        const double wf = w.facet(f) * facets[f].c;
+        if (wf == 0.0) continue;
+        sum += wf * (e.block(static_cast<Eigen::Index>(facets[f].k) * rows_, 0, rows_, columns_) -
+                     e.block(static_cast<Eigen::Index>(facets[f].l) * rows_, 0, rows_, columns_))
+                        .squaredNorm();
+      }
+      return sum;
+    });
+  // Physical a_k and c_kl rescaled to the unit-mean-edge mesh: a' = ell^-md a,
+  // c' = ell^-(md-1) c.
+  const double ell = disc_.meanEdgeLength();
+  const double aScale = energyScale(), cScale = aScale * ell;
+  return aScale * elementSum + cScale * facetSum;
+}
+
+double ResidualModel::energyScale() const {
+  return std::pow(disc_.meanEdgeLength(), -disc_.measureDim());
+}
+
+}  // namespace diffreg

@@ -1,0 +1,84 @@
+// The stacked residual operators of one energy on one discretization (energy.h explains the
+// two layouts): L_k per element, the constant targets of the linear energies, the deformation
+// gradients and the fit of the targets to them, the residuals and the total energy.
+#pragma once
+
+#include "deformation/energy.h"
+#include "deformation/regularizer.h"
+
+#include <Eigen/Core>
+
+namespace diffreg {
+
+class ResidualModel {
+ public:
+  /// Precomputes L_k for every element (O(m) small dense blocks) and, for the linear energies,
+  /// the constant targets.
+  ResidualModel(const Discretization& disc, Energy energy);
+
+  const Discretization& discretization() const { return disc_; }
+  Energy energy() const { return energy_.id(); }
+  const EnergyModel& energyModel() const { return energy_; }
+  bool coupled() const { return coupled_; }
+  bool iterative() const { return iterative_; }
+  /// Unknowns per vertex (1 separable, d coupled) and right-hand-side columns (d or 1).
+  int dofsPerVertex() const { return dofsPerVertex_; }
+  int columns() const { return columns_; }
+  /// Number of unknowns: n (separable) or d n (coupled).
+  int numUnknowns() const { return disc_.numVertices() * dofsPerVertex_; }
+  /// Residual rows per element (d separable, d^2 coupled) and local unknowns per element.
+  int rows() const { return rows_; }
+  int localSize() const { return localSize_; }
+  /// L_k (rows() x localSize()).
+  Eigen::Block<const Eigen::MatrixXd> local(int k) const {
+    return operators_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, localSize_);
+  }
+  /// All L_k stacked: (m rows()) x localSize().
+  const Eigen::MatrixXd& locals() const { return operators_; }
+  /// Global unknown index of element k's local unknown j.
+  int unknown(int k, int j) const;
+
+  /// Positions (n x d) in the unknown layout (numUnknowns() x columns()) and back.
+  Eigen::MatrixXd toUnknowns(const Eigen::MatrixXd& positions) const;
+  Eigen::MatrixXd toPositions(const Eigen::MatrixXd& unknowns) const;
+
+  /// Stacked L_k x_k for positions n x d, in the layout of the targets ((m rows()) x
+  /// columns(); separable: the blocks F_k^T). `F` is resized only when its shape is wrong.
+  void gradients(const Eigen::MatrixXd& positions, Eigen::MatrixXd& F) const;
+  /// Element k's target for its block C^T (rows() x columns(), separable layout) and total
+  /// weight (EnergyModel::fit), written into block k of `t`. Iterative energies only.
+  void fitElement(const double* Ct, double weight, int k, Eigen::MatrixXd& t) const;
+  /// Every element's target fitted to its own F_k alone (weight 1, in parallel): the local step
+  /// of plain local/global and of `local_step=reference`; the constant targets of the linear
+  /// energies. `t` is resized only when its shape is wrong.
+  void fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) const;
+  /// gradients() and fitTargets() for positions.
+  void targets(const Eigen::MatrixXd& positions, Eigen::MatrixXd& t) const;
+  /// Stacked residuals e_k = L_k x_k - t_k for positions and their targets.
+  void residuals(const Eigen::MatrixXd& positions, const Eigen::MatrixXd& t,
+                 Eigen::MatrixXd& e) const;
+  /// Residuals at `positions` with the targets fitted to each F_k alone.
+  Eigen::MatrixXd residuals(const Eigen::MatrixXd& positions) const;
+
+  /// D_k = ||e_k||_F^2 per element from stacked residuals.
+  Eigen::VectorXd distortion(const Eigen::MatrixXd& e) const;
+  /// ||e_k - e_l||_F^2 per facet from stacked residuals.
+  Eigen::VectorXd facetDifference(const Eigen::MatrixXd& e) const;
+  /// Total regularized energy E = sum (1-beta_k) a'_k D_k + sum beta_kl c'_kl ||e_k - e_l||^2
+  /// with a', c' measured on the rest mesh scaled to unit mean edge length, so E does not
+  /// change when the mesh and its motion are scaled together.
+  double energy(const Eigen::MatrixXd& e, const RegularizationWeights& weights) const;
+  /// The factor ell^-md of that rescaling: E = energyScale() x (the sum with physical a_k and
+  /// ell c_kl), the scale of the system matrix A in the energy (E = energyScale() |J x - t|^2).
+  double energyScale() const;
+
+ private:
+  const Discretization& disc_;
+  const EnergyModel& energy_;
+  bool coupled_, iterative_;
+  int dim_, elementSize_, dofsPerVertex_, columns_, rows_, localSize_;
+  Eigen::MatrixXd operators_;     // stacked L_k
+  Eigen::MatrixXd fixedTargets_;  // constant targets of the linear energies
+};
+
+}  // namespace diffreg

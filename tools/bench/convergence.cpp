@@ -1,0 +1,215 @@
+// Convergence cases: how many iterations and how much time the regularized ARAP deformation
+// needs to come within a relative energy gap of its minimum, plain local/global against the
+// accelerated default (both with the exact local step), and CGAL's ARAP to its own minimum.
+// Scenario (all meshes): the 5% at the low end of the longest axis held, the 5% at the high end
+// pulled outwards along that axis by 15% of the bounding-box diagonal.
+#include "bench.h"
+#include "core/timer.h"
+#include "deformation/deformer.h"
+#include "discretization/discretization.h"
+#include "mesh/io.h"
+#include "mesh/shapes.h"
+#include "weights/diffusion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace diffreg::bench {
+namespace {
+
+constexpr double kPull = 0.15;  // of the bounding-box diagonal
+
+struct Scenario {
+  std::string path;
+  Mesh mesh;
+  std::unique_ptr<Discretization> disc;
+  std::vector<int> fixed, moved, handles;
+  Eigen::MatrixXd targets;  // handles x d
+  Eigen::VectorXd weights;  // diffused from both handles (eq. 8, default t)
+};
+
+// The energy after each reported iteration and the seconds since the solve began.
+struct Trace {
+  std::vector<double> energy, seconds;
+  int iterations = 0;
+  bool converged = false;
+};
+
+Prepared prepareScenario(Scenario& s, const std::string& file, const std::string& generated) {
+  Prepared p;
+  if (!generated.empty()) {
+    s.mesh = makeSphere(1.0, 64, 40);
+    s.path = generated;
+  } else if (!sharedMesh(file, s.mesh, s.path)) {
+    p.available = false;
+    p.skipReason = s.path + " absent";
+    return p;
+  }
+  s.disc = std::make_unique<Discretization>(s.mesh);
+  std::tie(s.fixed, s.moved) = endHandles(s.disc->rest(), 0.05);
+  s.handles = s.fixed;
+  s.handles.insert(s.handles.end(), s.moved.begin(), s.moved.end());
+  const Eigen::MatrixXd& rest = s.disc->rest();
+  const Eigen::RowVectorXd lo = rest.colwise().minCoeff(), hi = rest.colwise().maxCoeff();
+  int axis = 0;
+  for (int a = 1; a < rest.cols(); ++a)
+    if (hi(a) - lo(a) >= (hi(axis) - lo(axis)) * (1.0 - 1e-9)) axis = a;
+  s.targets.resize(static_cast<Eigen::Index>(s.handles.size()), rest.cols());
+  for (size_t i = 0; i < s.handles.size(); ++i)
+    s.targets.row(static_cast<Eigen::Index>(i)) = rest.row(s.handles[i]);
+  for (size_t i = s.fixed.size(); i < s.handles.size(); ++i)
+    s.targets(static_cast<Eigen::Index>(i), axis) += kPull * s.disc->boundingBoxDiagonal();
+  DiffusionWeights w(*s.disc);
+  w.setHandles({s.fixed, s.moved}, {1.0, 1.0}, {0.5, 1.0});
+  s.weights = w.solve();
+  p.source = s.path;
+  p.vertices = s.disc->numVertices();
+  p.elements = s.disc->numElements();
+  p.facts["handle_vertices"] = static_cast<double>(s.handles.size());
+  return p;
+}
+
+DeformationOptions optionsFor(const Scenario& s, const std::string& reg) {
+  DeformationOptions o;
+  o.energy = Energy::Arap;
+  o.regularization = parseRegularization(reg);
+  o.beta = 0.5;
+  if (o.regularization == Regularization::Nonuniform) o.weights = s.weights;
+  return o;
+}
+
+Trace run(const Scenario& s, DeformationOptions o, int cap, double tolerance) {
+  Trace trace;
+  Timer timer;
+  o.progress = [&](int, double energy, double) {
+    trace.energy.push_back(energy);
+    trace.seconds.push_back(timer.seconds());
+  };
+  DeformationSession session(*s.disc, o);
+  session.setHandles(s.handles);
+  session.setTargets(s.targets);
+  session.solve(1, 0.0);  // the factorizations, outside the timed solve
+  trace = Trace();
+  timer.reset();
+  const DeformationResult r = session.solve(cap, tolerance);
+  trace.iterations = r.iterations;
+  trace.converged = r.converged;
+  return trace;
+}
+
+// The first iteration (1-based index into the trace) within `gap` of `best`, and its time.
+std::pair<double, double> reach(const Trace& t, double best, double gap) {
+  for (size_t i = 0; i < t.energy.size(); ++i)
+    if (t.energy[i] - best <= gap * best)
+      return {static_cast<double>(i + 1), t.seconds[i]};
+  return {NAN, NAN};
+}
+
+void addCase(std::vector<Case>& cases, const std::string& label, const std::string& file,
+             const std::string& reg, int plainCap, const std::string& generated = "") {
+  auto state = std::make_shared<Scenario>();
+  Case c;
+  c.group = "converge";
+  c.name = "converge/" + label + "/" + reg;
+  c.maxRepeats = 1;  // long, and the iteration counts do not vary
+  c.prepare = [state, file, generated] { return prepareScenario(*state, file, generated); };
+  c.release = [state] { *state = Scenario(); };
+  c.run = [state, reg, plainCap] {
+    const Scenario& s = *state;
+    const DeformationOptions o = optionsFor(s, reg);
+    // The minimum: accelerated far past the default tolerance.
+    Trace best = run(s, o, 50000, 1e-13);
+    Trace accelerated = run(s, o, kDefaultIterations, kDefaultTolerance);
+    DeformationOptions plainOptions = o;
+    plainOptions.acceleration = Acceleration::None;
+    Trace plain = run(s, plainOptions, plainCap, 0.0);
+    double minimum = std::numeric_limits<double>::infinity();
+    for (const Trace* t : {&best, &accelerated, &plain})
+      for (double e : t->energy) minimum = std::min(minimum, e);
+    Sample sample;
+    for (double gap : {1e-3, 1e-4, 1e-6}) {
+      const std::string g = gap == 1e-3 ? "1e-3" : gap == 1e-4 ? "1e-4" : "1e-6";
+      const auto [ai, as] = reach(best, minimum, gap);
+      const auto [pi, ps] = reach(plain, minimum, gap);
+      sample.emplace_back("accelerated_iterations_" + g, ai);
+      sample.emplace_back("accelerated_" + g, as);
+      sample.emplace_back("plain_iterations_" + g, pi);
+      sample.emplace_back("plain_" + g, ps);
+    }
+    sample.emplace_back("default_iterations", accelerated.iterations);
+    sample.emplace_back("default_converged", accelerated.converged ? 1.0 : 0.0);
+    sample.emplace_back("default_gap", (accelerated.energy.back() - minimum) / minimum);
+    sample.emplace_back("default", accelerated.seconds.back());
+    sample.emplace_back("plain_cap_iterations", plainCap);
+    return sample;
+  };
+  cases.push_back(std::move(c));
+}
+
+// CGAL's ARAP on the same scenario (no regularization): its energy per iteration measured as
+// our per-element ARAP energy of its shapes, the gap to the lowest value it reaches in `cap`
+// iterations.
+void addCgalCase(std::vector<Case>& cases, const std::string& label, const std::string& file,
+                 int cap, const std::string& generated = "") {
+  auto state = std::make_shared<Scenario>();
+  Case c;
+  c.group = "converge";
+  c.name = "converge/" + label + "/cgal";
+  c.maxRepeats = 1;
+  c.prepare = [state, file, generated] { return prepareScenario(*state, file, generated); };
+  c.release = [state] { *state = Scenario(); };
+  c.run = [state, cap] {
+    const Scenario& s = *state;
+    const ResidualModel model(*s.disc, Energy::Arap);
+    const RegularizationWeights none =
+        makeRegularizationWeights(*s.disc, Regularization::None, 0.0);
+    Trace t;
+    traceCgalArap(s.mesh.positions(), s.mesh.elements(), s.handles, s.targets, cap,
+                  [&](int, const Eigen::MatrixXd& X, double seconds) {
+                    Eigen::MatrixXd tt, e;
+                    model.targets(X, tt);
+                    model.residuals(X, tt, e);
+                    t.energy.push_back(model.energy(e, none));
+                    t.seconds.push_back(seconds);
+                  });
+    const double minimum = *std::min_element(t.energy.begin(), t.energy.end());
+    Sample sample;
+    for (double gap : {1e-3, 1e-4, 1e-6}) {
+      const std::string g = gap == 1e-3 ? "1e-3" : gap == 1e-4 ? "1e-4" : "1e-6";
+      const auto [i, sec] = reach(t, minimum, gap);
+      sample.emplace_back("cgal_iterations_" + g, i);
+      sample.emplace_back("cgal_" + g, sec);
+    }
+    sample.emplace_back("cgal_cap_iterations", cap);
+    sample.emplace_back("cgal_300", t.seconds[std::min<size_t>(299, t.seconds.size() - 1)]);
+    return sample;
+  };
+  cases.push_back(std::move(c));
+}
+
+}  // namespace
+
+void addConvergenceCases(std::vector<Case>& cases, const Sizes& sizes) {
+  const std::vector<std::string> regs{"none", "uniform", "nonuniform"};
+  if (sizes.quick) {
+    for (const std::string& reg : regs) addCase(cases, "sphere-2.5k", "", reg, 2000, "sphere");
+    addCgalCase(cases, "sphere-2.5k", "", 1000, "sphere");
+    return;
+  }
+  for (const std::string& reg : regs)
+    addCase(cases, "rocker-arm", "surface-rocker-arm.obj", reg, 5000);
+  addCgalCase(cases, "rocker-arm", "surface-rocker-arm.obj", 3000);
+  for (const std::string& reg : regs)
+    addCase(cases, "tet-monkey", "tet-monkey.mesh", reg, 3000);
+  for (const std::string& reg : regs)
+    addCase(cases, "crocodile", "planar-crocodile.obj", reg, 3000);
+  for (const std::string& reg : regs)
+    addCase(cases, "armadillo", "surface-armadillo.obj", reg, 1500);
+  addCgalCase(cases, "armadillo", "surface-armadillo.obj", 600);
+}
+
+}  // namespace diffreg::bench
