@@ -284,3 +284,27 @@ TEST_CASE("serve API: concurrent drags end with the latest state solved", "[serv
   const double target = state.at("handles")[1].at("targets")[2][1].get<double>();
   CHECK(f.positions()(98, 1) == Approx(target));
 }
+
+TEST_CASE("serve API: POST /api/refine continues an unconverged deformation", "[serve]") {
+  Fixture f;
+  f.ok("PATCH", "/api/params", R"({"iterations": 2, "local_step": "exact", "acceleration": "lbfgs"})");
+  f.ok("POST", "/api/handles", kLeft);
+  f.ok("POST", "/api/handles", kRight);
+  json state = f.ok("PATCH", "/api/handles/1", R"({"move_to": [8, 1.5, 0]})");
+  CHECK(state.at("params").at("local_step") == "exact");
+  CHECK_FALSE(state.at("update").at("converged").get<bool>());
+  const double criterion = state.at("update").at("criterion").get<double>();
+  CHECK(criterion > state.at("params").at("tolerance").get<double>());
+  int rounds = 0;
+  while (!state.at("update").at("converged").get<bool>() && rounds < 2000) {
+    state = f.ok("POST", "/api/refine", "{}");
+    ++rounds;
+  }
+  CHECK(state.at("update").at("converged").get<bool>());
+  // Converged: refining again changes nothing.
+  const json again = f.ok("POST", "/api/refine", "{}");
+  CHECK(again.at("metrics").at("energy").get<double>() ==
+        Approx(state.at("metrics").at("energy").get<double>()).epsilon(1e-12));
+  CHECK(f.send("GET", "/api/refine").first == 405);
+  CHECK(f.send("PATCH", "/api/params", R"({"local_step": "foo"})").first == 422);
+}

@@ -187,3 +187,40 @@ TEST_CASE("serve session: with continue_drags a drag continues from the current 
     CHECK(s.update().initialGuess != "given");
   }
 }
+
+TEST_CASE("serve session: refine continues an unconverged deformation until it converges",
+          "[serve]") {
+  EditSession s(shipped("bar.obj"));
+  EditState state = s.state();
+  state.params.iterations = 3;  // a small budget per update
+  state.handles.push_back(handle(s, state, {0, 33, 66, 99, 132}));
+  state.handles.push_back(handle(s, state, {32, 65, 98, 131, 164}));
+  state.handles[1].targets.col(1).array() += 1.0;
+  s.setState(state);
+  const UpdateReport first = s.update();
+  REQUIRE(first.solved);
+  CHECK_FALSE(first.converged);
+  CHECK(first.criterion > state.params.tolerance);
+  const double before = s.metrics().energy;
+  int rounds = 0;
+  while (s.refine() && rounds < 2000) {
+    const UpdateReport u = s.update();
+    REQUIRE(u.solved);
+    CHECK(u.initialGuess == "continued");
+    CHECK(s.metrics().energy <= before * (1 + 1e-12));
+    ++rounds;
+  }
+  CHECK(rounds > 0);
+  CHECK(s.lastUpdate().converged);
+  CHECK(s.lastUpdate().criterion <= state.params.tolerance);
+  CHECK_FALSE(s.refine());  // nothing left to do
+
+  // Batches of a continued run are one run: the same shape as a single converged solve.
+  EditSession once(shipped("bar.obj"));
+  EditState all = state;
+  all.params.iterations = kDefaultIterations;
+  once.setState(all);
+  REQUIRE(once.update().converged);
+  CHECK(s.metrics().energy == Approx(once.metrics().energy).epsilon(1e-9));
+  CHECK((s.positions() - once.positions()).cwiseAbs().maxCoeff() < 1e-9);
+}

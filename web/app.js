@@ -551,8 +551,9 @@ function renderMetrics() {
       `<td>${t[key].symbolic}</td><td>${t[key].numeric}</td><td>${t[key].solves}</td></tr>`;
   }).join('');
   $('update-time').textContent = `last update ${(u.seconds * 1000).toFixed(1)} ms`;
-  $('update-note').textContent = u.solved ? `last update: ${u.iterations} iteration${u.iterations === 1 ? '' : 's'}` +
-    `${u.converged ? '' : ' (tolerance not reached)'}; counts since loading` : `not solved: ${u.message}`;
+  $('update-note').textContent = u.solved ? `last update: ${u.iterations} iteration${u.iterations === 1 ? '' : 's'}, ` +
+    (u.converged ? 'converged' : `criterion ${fmt(u.criterion)} > ${fmt(app.state.params.tolerance)}, refining\u2026`) +
+    '; counts since loading' : `not solved: ${u.message}`;
   $('mesh-info').textContent = `${app.mesh.name} \u00b7 ${app.mesh.kind} \u00b7 ${app.mesh.vertices} vertices`;
 }
 
@@ -609,6 +610,9 @@ async function showState(state) {
   renderColorBar();
   updateSaveLinks();
   updateGeometry();
+  // Not converged within the update's iterations: keep iterating while nothing else waits.
+  const u = state.update;
+  if (u.solved && !u.converged && queue.pending.size === 0) edit('refine', 'POST', '/api/refine', {});
 }
 
 function wirePanel() {

@@ -57,6 +57,7 @@ void DeformationSession::setHandles(const std::vector<int>& vertices) {
     seen[static_cast<size_t>(v)] = true;
   }
   handles_ = vertices;
+  resumable_ = false;
   targets_.resize(static_cast<Eigen::Index>(vertices.size()), disc_.dim());
   for (size_t i = 0; i < vertices.size(); ++i)
     targets_.row(static_cast<Eigen::Index>(i)) = disc_.rest().row(vertices[i]);
@@ -74,6 +75,7 @@ void DeformationSession::setTargets(const Eigen::MatrixXd& targets) {
                            std::to_string(d) + "D");
   if (!targets.allFinite()) throw InvalidParameter("deformation: a target is not finite");
   targets_ = targets.leftCols(d);
+  resumable_ = false;
 }
 
 void DeformationSession::setRegularization(Regularization mode, double beta,
@@ -83,6 +85,7 @@ void DeformationSession::setRegularization(Regularization mode, double beta,
   options_.beta = beta;
   options_.weights = weights;
   system_.setWeights(w);
+  resumable_ = false;
   restRhs_.resize(0, 0);  // C depends on the weights
   initRhs_.resize(0, 0);
   if (initSystem_) initSystem_->setWeights(w);
@@ -186,7 +189,7 @@ void DeformationSession::iterateReference(int maxIterations, double tolerance, E
 
 void DeformationSession::descend(int maxIterations, double tolerance, Eigen::MatrixXd& X,
                                  double E, DeformationResult& result) {
-  AndersonMixer mixer(std::max(1, options_.history));
+  AndersonMixer& mixer = anderson_;
   const bool accelerate = options_.acceleration == Acceleration::Anderson;
   Eigen::MatrixXd plainT, plainE, mixed, mixedT, mixedE;
   while (result.iterations < maxIterations) {
@@ -244,7 +247,7 @@ void DeformationSession::descendLbfgs(int maxIterations, double tolerance, Eigen
                                       double E, DeformationResult& result) {
   constexpr double kArmijo = 1e-4;
   constexpr int kBacktracks = 6;
-  LbfgsHistory history(std::max(1, options_.history));
+  LbfgsHistory& history = lbfgs_;
   const double scale = 2.0 * model_.energyScale();  // grad E = scale (A X - C t)
   const auto initial = [this](const Eigen::MatrixXd& q) { return system_.applyInverse(q); };
   Eigen::MatrixXd g = gradient(X, t_), trial, trialT, trialE;
@@ -297,8 +300,12 @@ void DeformationSession::descendLbfgs(int maxIterations, double tolerance, Eigen
   }
 }
 
+DeformationResult DeformationSession::resume(int maxIterations, double relTolerance) {
+  return run(maxIterations, relTolerance, nullptr, true);
+}
+
 DeformationResult DeformationSession::run(int maxIterations, double relTolerance,
-                                          const Eigen::MatrixXd* initial) {
+                                          const Eigen::MatrixXd* initial, bool resume) {
   if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
   if (maxIterations < 1)
     throw InvalidParameter("deformation: iterations = " + std::to_string(maxIterations) +
@@ -314,13 +321,26 @@ DeformationResult DeformationSession::run(int maxIterations, double relTolerance
     report(result);
   } else {
     result.converged = false;
-    const double E = start(initial, X, result);
+    double E = 0.0;
+    if (resume && resumable_) {
+      X = lastX_;
+      E = lastE_;
+      result.initialGuess = "continued";
+      result.energies.push_back(E);
+    } else {
+      lbfgs_ = LbfgsHistory(std::max(1, options_.history));
+      anderson_ = AndersonMixer(std::max(1, options_.history));
+      E = start(initial, X, result);
+    }
     if (options_.localStep == LocalStep::Reference)
       iterateReference(maxIterations, relTolerance, X, E, result);
     else if (options_.acceleration == Acceleration::Lbfgs)
       descendLbfgs(maxIterations, relTolerance, X, E, result);
     else
       descend(maxIterations, relTolerance, X, E, result);
+    lastX_ = X;
+    lastE_ = result.energies.back();
+    resumable_ = true;
   }
   result.positions = std::move(X);
   result.seconds =

@@ -121,6 +121,12 @@ class DeformationSession {
   /// \throw InvalidParameter as solve(), or for `initial` of the wrong size or not finite.
   DeformationResult solveFrom(const Eigen::MatrixXd& initial, int maxIterations,
                               double relTolerance);
+  /// Continues the last solve()/solveFrom()/resume() of the iterative energies where it
+  /// stopped, with its targets and acceleration history, for up to `maxIterations` more: runs
+  /// in batches equal one long run. initialGuess is "continued"; energies start with the
+  /// energy it stopped at. Falls back to solve() when there is nothing to continue (no run yet,
+  /// a linear energy, or handles, targets or regularization changed since).
+  DeformationResult resume(int maxIterations, double relTolerance);
 
   const DeformationOptions& options() const { return options_; }
   const ResidualModel& model() const { return model_; }
@@ -133,7 +139,8 @@ class DeformationSession {
 
  private:
   // solve() (initial = nullptr) and solveFrom().
-  DeformationResult run(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial);
+  DeformationResult run(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial,
+                        bool resume = false);
   // The first shape of the iterative energies and its local step (t_, e_, the energy).
   double start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X, DeformationResult& result);
   // Local/global from there: descent (exact local step) or the reference loop.
@@ -161,6 +168,13 @@ class DeformationSession {
   Eigen::MatrixXd targets_;
   Eigen::MatrixXd t_, e_;        // targets and residuals, reused across iterations
   Eigen::MatrixXd F_;            // stacked L_k x_k of the local step, scratch
+  // Where the last iterative run stopped, for resume(): its shape and energy (with t_) and the
+  // acceleration's memory.
+  Eigen::MatrixXd lastX_;
+  double lastE_ = 0.0;
+  bool resumable_ = false;
+  LbfgsHistory lbfgs_{1};
+  AndersonMixer anderson_{1};
   Eigen::MatrixXd restTargets_;  // targets fitted to the rest shape (first local step), cached
   Eigen::MatrixXd restRhs_;      // C restTargets_ for the current weights (empty: not yet)
   Eigen::MatrixXd initRhs_;      // the same for the ASAP initial guess's system

@@ -142,6 +142,8 @@ json paramsJson(const EditParams& p) {
           {"steps", p.diffusion.steps},
           {"iterations", p.iterations},
           {"tolerance", p.tolerance},
+          {"local_step", toString(p.localStep)},
+          {"acceleration", toString(p.acceleration)},
           {"sigma", p.rbf.sigma},
           {"rbf_distance", toString(p.rbf.distance)},
           {"reference", p.reference},
@@ -292,6 +294,10 @@ ApiResponse Api::route(const ApiRequest& r) {
   if (p.rfind("/api/handles/", 0) == 0) {
     methods({"PATCH", "DELETE"});
     return edit(r);
+  }
+  if (p == "/api/refine") {
+    methods({"POST"});
+    return refine();
   }
   throw RequestError(404, "no endpoint " + p);
 }
@@ -447,7 +453,8 @@ ApiResponse Api::edit(const ApiRequest& r) {
     if (p == "/api/params") {
       allowOnly(body,
                 {"energy", "regularization", "beta", "scheme", "order", "t", "unit", "steps",
-                 "iterations", "tolerance", "sigma", "rbf_distance", "reference", "continue_drags"},
+                 "iterations", "tolerance", "local_step", "acceleration", "sigma", "rbf_distance",
+                 "reference", "continue_drags"},
                 "params");
       EditParams& q = want.params;
       if (body.contains("energy")) q.energy = parseEnergy(text(body, "energy"));
@@ -462,6 +469,9 @@ ApiResponse Api::edit(const ApiRequest& r) {
       if (body.contains("iterations"))
         q.iterations = integer(body.at("iterations"), "'iterations'");
       if (body.contains("tolerance")) q.tolerance = number(body, "tolerance");
+      if (body.contains("local_step")) q.localStep = parseLocalStep(text(body, "local_step"));
+      if (body.contains("acceleration"))
+        q.acceleration = parseAcceleration(text(body, "acceleration"));
       if (body.contains("sigma")) q.rbf.sigma = number(body, "sigma");
       if (body.contains("rbf_distance"))
         q.rbf.distance = parseRbfDistance(text(body, "rbf_distance"));
@@ -540,6 +550,15 @@ ApiResponse Api::edit(const ApiRequest& r) {
   return out;
 }
 
+ApiResponse Api::refine() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  // An edit waiting for the lock brings newer results; an idle refinement yields to it.
+  if (waiting_.load() == 0 && session_->refine()) session_->update();
+  ApiResponse out;
+  out.body = stateJson(false, -1);
+  return out;
+}
+
 bool Api::finish() {
   if (waiting_.load() > 0) return false;  // a newer edit follows and brings the results
   if (session_->computedVersion() != session_->version()) session_->update();
@@ -583,6 +602,7 @@ std::string Api::stateJson(bool coalesced, int created) const {
                 {"metrics_seconds", u.metricsSeconds},
                 {"iterations", u.iterations},
                 {"converged", u.converged},
+                {"criterion", u.criterion},
                 {"weights_work", u.weightsWork},
                 {"deformation_work", u.deformationWork},
                 {"reference_work", u.referenceWork},

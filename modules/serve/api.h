@@ -20,8 +20,10 @@
 //                            "regularization": "none"|"uniform"|"nonuniform", "beta": [0, 1],
 //                            "scheme": "diffusion"|"rbf", "order": "first"|"second"|
 //                            "implicit_euler", "t": (0, 1e6], "unit": "absolute"|"diagonal"|
-//                            "mean_edge2", "steps": [1, 1e5], "iterations": [1, 1000],
-//                            "tolerance": [0, 1], "sigma": (0, 1e6], "rbf_distance":
+//                            "mean_edge2", "steps": [1, 1e5], "iterations": [1, 1e5]
+//                            (per update), "tolerance": [0, 1] (stationarity), "local_step":
+//                            "exact"|"reference", "acceleration": "lbfgs"|"anderson"|"none",
+//                            "sigma": (0, 1e6], "rbf_distance":
 //                            "euclidean"|"geodesic", "reference": bool, "continue_drags": bool
 //                            (EditParams::continueDrags)}
 //   POST   /api/handles      add a handle {"vertices": [ids], "name"?, "range"? (0, 1e6],
@@ -32,6 +34,9 @@
 //                            positions), "move_to": [x, y, z] (translates the targets so that
 //                            their centroid is there; absolute, so repeating it is harmless),
 //                            "targets": [[x, y, z], ...], "range", "magnitude", "name"}
+//   POST   /api/refine       continue an unconverged deformation (and reference) from the
+//                            current shapes for another "iterations" (the page sends it while
+//                            idle until "converged"); a no-op when converged or an edit waits
 //   DELETE /api/handles/ID   remove one handle
 //   PUT    /api/handles      replace all handles by a handle file (the `--handles` JSON format)
 //   DELETE /api/handles      remove all handles
@@ -46,7 +51,8 @@
 // "targets", "range", "magnitude"}], "metrics": {"d_max", "d_ave", "d_dev", "dist" (null
 // without a reference), "inverted", "energy"}, "update": the last update {"solved", "message",
 // "seconds", "weights_seconds", "deformation_seconds", "reference_seconds",
-// "metrics_seconds", "iterations", "converged", "weights_work", "deformation_work",
+// "metrics_seconds", "iterations", "converged", "criterion" (how far from converged:
+// DeformationResult::criterion), "weights_work", "deformation_work",
 // "reference_work" ("none"|"solve"|"numeric"|"analysis"|"evaluate"), "weights",
 // "deformation", "reference": counters {"symbolic", "numeric", "solves"} of that update},
 // "totals": the counters summed over the session, "mesh": {"name", "kind", "vertices"}}.
@@ -115,6 +121,8 @@ class Api {
  private:
   ApiResponse route(const ApiRequest& request);
   ApiResponse edit(const ApiRequest& request);
+  // POST /api/refine: continues an unconverged deformation for another `iterations`.
+  ApiResponse refine();
   ApiResponse read(const ApiRequest& request);
   /// Runs the update unless a newer edit is waiting; true when this call left results for
   /// the session's current version.

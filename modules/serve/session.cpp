@@ -104,9 +104,11 @@ struct EditSession::Systems {
   std::unique_ptr<DeformationSession> deform;
   std::optional<EditState> deformSynced;
   long deformWeightsSerial = -1;
+  bool deformConverged = true;
 
   std::unique_ptr<DeformationSession> reference;
   std::optional<EditState> referenceSynced;
+  bool referenceConverged = true;
   Eigen::MatrixXd referencePositions;  // n x d
 };
 
@@ -174,7 +176,7 @@ void EditSession::validate(const EditState& s) const {
     throw InvalidParameter("steps = " + std::to_string(p.diffusion.steps) +
                            " is outside [1, 100000]");
   checkRange("sigma", p.rbf.sigma, 0.0, 1e6, true);
-  if (p.iterations < 1 || p.iterations > 1000)
+  if (p.iterations < 1 || p.iterations > 100000)
     throw InvalidParameter("iterations = " + std::to_string(p.iterations) +
                            " is outside [1, 1000]");
   checkRange("tolerance", p.tolerance, 0.0, 1.0, false);
@@ -211,9 +213,16 @@ void EditSession::setHandles(const HandleSet& handles) {
   setState(std::move(s));
 }
 
+bool EditSession::refine() {
+  if (computedVersion_ != version_) return true;  // the pending update solves anyway
+  if (!last_.solved || last_.converged) return false;
+  refine_ = true;
+  return true;
+}
+
 UpdateReport EditSession::update() {
   UpdateReport report;
-  if (computedVersion_ == version_) {
+  if (computedVersion_ == version_ && !refine_) {
     report.solved = last_.solved;
     report.message = last_.message;
     return report;
@@ -231,6 +240,7 @@ UpdateReport EditSession::update() {
     report.message = e.what();
   }
   computedVersion_ = version_;
+  refine_ = false;
   report.seconds = total.seconds();
   weightTotals_ += report.weights;
   deformTotals_ += report.deformation;
@@ -321,14 +331,20 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
     S.deformSynced.reset();
     S.reference.reset();
     S.referenceSynced.reset();
+    S.deformConverged = S.referenceConverged = true;
+    report.converged = true;
   } else {
     const std::optional<EditState>& had = S.deformSynced;
-    const bool fresh = !S.deform || !had || had->params.energy != p.energy;
+    const bool fresh = !S.deform || !had || had->params.energy != p.energy ||
+                       had->params.localStep != p.localStep ||
+                       had->params.acceleration != p.acceleration;
     if (fresh) {
       DeformationOptions options;
       options.energy = p.energy;
       options.regularization = p.regularization;
       options.beta = p.beta;
+      options.localStep = p.localStep;
+      options.acceleration = p.acceleration;
       if (p.regularization == Regularization::Nonuniform) options.weights = weights;
       options.backend = backend_;
       S.deform = std::make_unique<DeformationSession>(*disc_, options);
@@ -362,21 +378,26 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
       if (regChanged || q.iterations != p.iterations || q.tolerance != p.tolerance) drag = false;
       if (q.iterations != p.iterations || q.tolerance != p.tolerance) dirty = true;
     }
-    if (dirty) {
+    // Refining: the last run stopped at its iteration budget; continue from its shape.
+    const bool refining = refine_ && !dirty && !S.deformConverged;
+    if (dirty || refining) {
       const DeformationResult result =
-          drag ? S.deform->solveFrom(positions_.leftCols(d), p.iterations, p.tolerance)
-               : S.deform->solve(p.iterations, p.tolerance);
+          refining ? S.deform->resume(p.iterations, p.tolerance)
+          : drag   ? S.deform->solveFrom(positions_.leftCols(d), p.iterations, p.tolerance)
+                   : S.deform->solve(p.iterations, p.tolerance);
       positions = rest3;
       positions.leftCols(d) = result.positions;
       report.iterations = result.iterations;
-      report.converged = result.converged;
+      S.deformConverged = result.converged;
+      report.criterion = result.criterion;
       report.initialGuess = result.initialGuess;
       deformed = true;
     } else {
       report.iterations = last_.iterations;
-      report.converged = last_.converged;
+      report.criterion = last_.criterion;
       report.initialGuess = last_.initialGuess;
     }
+    report.converged = S.deformConverged;
     S.deformSynced = want;
     report.deformation = S.deform->stats() - before;
     report.deformationWork = workOf(report.deformation);
@@ -389,11 +410,15 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
   bool referenceChanged = false;
   if (wantReference) {
     const std::optional<EditState>& had = S.referenceSynced;
-    const bool fresh = !S.reference || !had || had->params.energy != p.energy;
+    const bool fresh = !S.reference || !had || had->params.energy != p.energy ||
+                       had->params.localStep != p.localStep ||
+                       had->params.acceleration != p.acceleration;
     if (fresh) {
       DeformationOptions options;
       options.energy = p.energy;
       options.regularization = Regularization::None;
+      options.localStep = p.localStep;
+      options.acceleration = p.acceleration;
       options.reserveRegularization = false;  // never regularized: the smaller pattern
       options.backend = backend_;
       S.reference = std::make_unique<DeformationSession>(*disc_, options);
@@ -413,18 +438,23 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
     }
     if (!fresh && (had->params.iterations != p.iterations || had->params.tolerance != p.tolerance))
       dirty = true;
-    if (dirty) {
-      S.referencePositions =
-          (drag ? S.reference->solveFrom(S.referencePositions, p.iterations, p.tolerance)
-                : S.reference->solve(p.iterations, p.tolerance))
-              .positions;
+    const bool refining = refine_ && !dirty && !S.referenceConverged;
+    if (dirty || refining) {
+      const DeformationResult result =
+          refining ? S.reference->resume(p.iterations, p.tolerance)
+          : drag   ? S.reference->solveFrom(S.referencePositions, p.iterations, p.tolerance)
+                   : S.reference->solve(p.iterations, p.tolerance);
+      S.referencePositions = result.positions;
+      S.referenceConverged = result.converged;
       referenceChanged = true;
     }
+    report.converged = report.converged && S.referenceConverged;
     S.referenceSynced = want;
     report.reference = S.reference->stats() - before;
     report.referenceWork = workOf(report.reference);
   } else {
     S.referenceSynced.reset();  // targets may move meanwhile: resynchronize when needed again
+    S.referenceConverged = true;
   }
   report.referenceSeconds = timer.seconds();
 

@@ -50,8 +50,13 @@ struct EditParams {
   WeightScheme scheme = WeightScheme::Diffusion;
   DiffusionParams diffusion;
   RbfSettings rbf;
-  int iterations = 50;      ///< local/global iterations (ARAP; ASAP on surfaces and solids)
-  double tolerance = 1e-6;  ///< relative energy decrease that stops the iterations
+  /// Local/global iterations per update (ARAP; ASAP on surfaces and solids). A run that stops
+  /// here unconverged continues with refine() while the editor is idle.
+  int iterations = 50;
+  /// Stationarity tolerance (DeformationOptions::relTolerance).
+  double tolerance = kDefaultTolerance;
+  LocalStep localStep = LocalStep::Exact;
+  Acceleration acceleration = Acceleration::Lbfgs;
   /// Also solve the edit without regularization, for the Dist metric (paper Table 1).
   bool reference = true;
   /// While only handle targets move (a drag), continue the iterations from the current shape
@@ -87,7 +92,12 @@ struct UpdateReport {
   double weightsSeconds = 0.0, deformationSeconds = 0.0, referenceSeconds = 0.0;
   double metricsSeconds = 0.0, seconds = 0.0;
   int iterations = 0;  ///< global steps of the deformation
+  /// The deformation (and the unregularized reference, when solved) met the stationarity
+  /// tolerance; false: refine() continues them.
   bool converged = true;
+  /// The deformation's stopping criterion at the end (DeformationResult::criterion): how far
+  /// from converged the shape is.
+  double criterion = 0.0;
   std::string initialGuess;
   /// False when the weights or the deformation could not be computed for this state (e.g. a
   /// component without handles, or weights outside [0, 1]); `message` says why. The previous
@@ -117,7 +127,7 @@ class EditSession {
   /// Checks a state against the mesh: handle ids unique and below nextId, vertex ids in range,
   /// referenced and in one handle only, targets |vertices| x 3 and finite and within 1000
   /// bounding-box diagonals of the mesh, r_j in (0, 1e6], m_j in [0, 1], parameters in their
-  /// ranges (t in (0, 1e6], steps in [1, 1e5], beta in [0, 1], iterations in [1, 1000],
+  /// ranges (t in (0, 1e6], steps in [1, 1e5], beta in [0, 1], iterations in [1, 100000],
   /// tolerance in [0, 1], sigma in (0, 1e6]).
   /// \throw InvalidParameter naming the handle, vertex or parameter at fault.
   void validate(const EditState& state) const;
@@ -137,6 +147,10 @@ class EditSession {
   /// previous results are kept.
   UpdateReport update();
   const UpdateReport& lastUpdate() const { return last_; }
+  /// Asks the next update() to continue an unconverged deformation (and reference) from the
+  /// current shapes for another `iterations`. Returns false when there is nothing to continue
+  /// (the last update converged or failed, and no edit is pending).
+  bool refine();
 
   /// Current positions, n x 3 (the rest shape before any deformation or without handles).
   const Eigen::MatrixXd& positions() const { return positions_; }
@@ -170,6 +184,7 @@ class EditSession {
   std::optional<EditState> computed_;  // the state the systems and results belong to
   std::unique_ptr<Systems> systems_;
   long version_ = 0, computedVersion_ = -1;
+  bool refine_ = false;
   UpdateReport last_;
   Eigen::MatrixXd positions_;
   Eigen::VectorXd weights_, distortion_, smoothness_;
