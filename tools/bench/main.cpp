@@ -312,7 +312,8 @@ void printConvergence(const std::vector<Result>& results, std::ostream& out) {
   Table t({"case", "V", "plain it 1e-3", "ms", "accel. it 1e-3", "ms", "plain it 1e-4", "ms",
            "accel. it 1e-4", "ms", "plain it 1e-6", "ms", "accel. it 1e-6", "ms",
            "default: it", "ms", "gap"});
-  Table c({"case", "V", "it 1e-3", "ms", "it 1e-4", "ms", "it 1e-6", "ms", "300 it (ms)"});
+  Table c({"case", "V", "it 1e-3", "ms", "it 1e-4", "ms", "it 1e-6", "ms", "300 it (ms)",
+           "read + preprocess + 300 it (ms)"});
   bool any = false, anyCgal = false;
   for (const Result& r : results) {
     if (r.c->group != "converge" || r.medians.empty()) continue;
@@ -324,6 +325,7 @@ void printConvergence(const std::vector<Result>& results, std::ostream& out) {
         row.push_back(ms(r.get(std::string("cgal_") + g)));
       }
       row.push_back(ms(r.get("cgal_300")));
+      row.push_back(r.has("cgal_read_300") ? ms(r.get("cgal_read_300")) : "-");
       c.add(row);
       continue;
     }
