@@ -79,6 +79,8 @@ TEST_CASE("diffreg: deformation errors are one line and write nothing", "[cli][d
       {"-i two.off --handles h.json --filter deform -o out.ply", "component"},
       {bar + "--filter 'deform beta=2' -o out.ply", "beta"},
       {bar + "--filter 'deform energy=rigid' -o out.ply", "energy"},
+      {bar + "--filter 'deform local_step=foo' -o out.ply", "'local_step' = 'foo' is not one of: exact, reference"},
+      {bar + "--filter 'deform acceleration=fast' -o out.ply", "lbfgs, anderson, none"},
       {bar + "--filter 'deform regularization=nonuniform' -o out.ply", "diffreg:weight"},
       {bar + "--filter deform --filter 'measure reference=nothere.ply' -o out.ply", "nothere.ply"},
       {bar + "--filter deform -o out.ply -o out.ply", "twice"},
@@ -117,6 +119,7 @@ TEST_CASE("diffreg reports a long deformation's iterations on stderr unless quie
   REQUIRE(verbose.code == 0);
   INFO(verbose.err);
   CHECK(verbose.err.find("diffreg: deform: iteration 1, energy ") != std::string::npos);
+  CHECK(verbose.err.find(", criterion ") != std::string::npos);
   const ToolRun quiet = s.run(run + " --progress-after 0 -q");
   REQUIRE(quiet.code == 0);
   CHECK(quiet.err.empty());
