@@ -81,4 +81,17 @@ double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep s
   return model.energy(e, reg.weights());
 }
 
+double relaxedEnergy(const ResidualModel& model, const Regularizer& reg,
+                     const Eigen::MatrixXd& X) {
+  Eigen::MatrixXd t, e, F;
+  double E = localStep(model, reg, LocalStep::Exact, X, t, e, F);
+  for (int i = 0; i < 100 && reg.coupling() && model.iterative(); ++i) {
+    const double next = localStep(model, reg, LocalStep::Exact, X, t, e, F);
+    const bool settled = E - next <= 1e-12 * E;
+    E = next;
+    if (settled) break;
+  }
+  return E;
+}
+
 }  // namespace diffreg

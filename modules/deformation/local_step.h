@@ -41,4 +41,10 @@ double localStep(const ResidualModel& model, const Regularizer& regularizer, Loc
                  const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e,
                  Eigen::MatrixXd& F);
 
+/// Eq. 3 at positions X as a function of the shape alone: its minimum over the targets,
+/// approached by exact local steps from the per-element fit until one gains less than 1e-12
+/// of the energy (at most 100). Without coupling the per-element fit is the minimum.
+double relaxedEnergy(const ResidualModel& model, const Regularizer& regularizer,
+                     const Eigen::MatrixXd& X);
+
 }  // namespace diffreg

@@ -1,6 +1,7 @@
 #include "deformation/metrics.h"
 
 #include "core/error.h"
+#include "deformation/local_step.h"
 #include "deformation/rotation.h"
 
 #include <Eigen/Dense>
@@ -92,7 +93,11 @@ DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
   m.dAve = a.dot(D) / a.sum();
   m.dDev = std::sqrt(std::max(0.0, a.dot((D.array() - m.dAve).square().matrix()) / a.sum()));
   m.inverted = countInverted(disc, positions);
-  m.energy = model.energy(e, weights);
+  // Eq. 3 of the shape: the targets relaxed as the exact local step does (D_k above keeps
+  // each element's own closest rotation, the paper's distortion).
+  Regularizer regularizer(disc);
+  regularizer.setWeights(weights);
+  m.energy = relaxedEnergy(model, regularizer, positions);
   if (reference) m.dist = rmsDistance(positions, *reference);
   return m;
 }

@@ -36,7 +36,9 @@ struct DeformationMetrics {
   double dAve = 0.0;           ///< area- (volume-) weighted mean of D_k: sum a_k D_k / sum a_k
   double dDev = 0.0;           ///< area- (volume-) weighted standard deviation of D_k
   int inverted = 0;            ///< countInverted
-  double energy = 0.0;         ///< total regularized energy (ResidualModel::energy)
+  /// Eq. 3 at these positions: the total regularized energy with the targets relaxed by exact
+  /// local steps (relaxedEnergy), the value the deformation minimizes.
+  double energy = 0.0;
   std::optional<double> dist;  ///< rmsDistance to the reference, when one is given
 };
 
