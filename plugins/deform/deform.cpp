@@ -95,7 +95,7 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
               {"accelerated_iterations", result.accelerated},
               {"converged", result.converged},
               {"criterion", result.criterion},
-              {"solve_seconds", result.seconds},
+              {"iteration_seconds", result.seconds},
               {"energies", result.energies}};
   if (options.regularization == Regularization::Uniform) out.data["beta"] = options.beta;
   return out;
