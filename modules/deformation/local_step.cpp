@@ -71,7 +71,7 @@ double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep s
     // fit brings the rotations along at once where the shape has turned.
     Eigen::MatrixXd fitted;
     model.fitTargets(F, fitted);
-    if (model.energy(F - fitted, reg.weights()) < model.energy(F - t, reg.weights()))
+    if (model.energy(F, fitted, reg.weights()) < model.energy(F, t, reg.weights()))
       t.swap(fitted);
   }
   if (sweep)

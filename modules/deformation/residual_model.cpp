@@ -218,15 +218,27 @@ Eigen::VectorXd ResidualModel::facetDifference(const Eigen::MatrixXd& e) const {
   return S;
 }
 
-double ResidualModel::energy(const Eigen::MatrixXd& e, const RegularizationWeights& w) const {
-  const double elementSum = chunkedSum(disc_.numElements(), [&](int begin, int end) {
+namespace {
+
+// Sum over elements of (1 - beta_k) a_k |block_k|^2 and over facets of beta_kl c_kl
+// |block_k - block_l|^2 for blocks given by `block(k, a, b)`, scaled to the unit mean edge.
+template <class Block>
+double blendedEnergy(const Discretization& disc, const RegularizationWeights& w, int rows,
+                     int columns, double aScale, const Block& block) {
+  const double elementSum = chunkedSum(disc.numElements(), [&](int begin, int end) {
     double sum = 0.0;
-    for (int k = begin; k < end; ++k)
-      sum += (1.0 - w.element(k)) * disc_.measures()(k) *
-             e.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, columns_).squaredNorm();
+    for (int k = begin; k < end; ++k) {
+      double d2 = 0.0;
+      for (int b = 0; b < columns; ++b)
+        for (int a = 0; a < rows; ++a) {
+          const double x = block(k, a, b);
+          d2 += x * x;
+        }
+      sum += (1.0 - w.element(k)) * disc.measures()(k) * d2;
+    }
     return sum;
   });
-  const auto& facets = disc_.facets();
+  const auto& facets = disc.facets();
   double facetSum = 0.0;
   if (!facets.empty() && w.facet.size() > 0 && w.facet.cwiseAbs().maxCoeff() > 0.0)
     facetSum = chunkedSum(static_cast<int>(facets.size()), [&](int begin, int end) {
@@ -234,17 +246,37 @@ double ResidualModel::energy(const Eigen::MatrixXd& e, const RegularizationWeigh
       for (int f = begin; f < end; ++f) {
         const double wf = w.facet(f) * facets[f].c;
         if (wf == 0.0) continue;
-        sum += wf * (e.block(static_cast<Eigen::Index>(facets[f].k) * rows_, 0, rows_, columns_) -
-                     e.block(static_cast<Eigen::Index>(facets[f].l) * rows_, 0, rows_, columns_))
-                        .squaredNorm();
+        double d2 = 0.0;
+        for (int b = 0; b < columns; ++b)
+          for (int a = 0; a < rows; ++a) {
+            const double x = block(facets[f].k, a, b) - block(facets[f].l, a, b);
+            d2 += x * x;
+          }
+        sum += wf * d2;
       }
       return sum;
     });
   // Physical a_k and c_kl rescaled to the unit-mean-edge mesh: a' = ell^-md a,
   // c' = ell^-(md-1) c.
-  const double ell = disc_.meanEdgeLength();
-  const double aScale = energyScale(), cScale = aScale * ell;
-  return aScale * elementSum + cScale * facetSum;
+  return aScale * elementSum + aScale * disc.meanEdgeLength() * facetSum;
+}
+
+}  // namespace
+
+double ResidualModel::energy(const Eigen::MatrixXd& e, const RegularizationWeights& w) const {
+  const int r = rows_;
+  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
+    return e(static_cast<Eigen::Index>(k) * r + a, b);
+  });
+}
+
+double ResidualModel::energy(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t,
+                             const RegularizationWeights& w) const {
+  const int r = rows_;
+  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
+    const Eigen::Index row = static_cast<Eigen::Index>(k) * r + a;
+    return F(row, b) - t(row, b);
+  });
 }
 
 double ResidualModel::energyScale() const {

@@ -68,6 +68,9 @@ class ResidualModel {
   /// with a', c' measured on the rest mesh scaled to unit mean edge length, so E does not
   /// change when the mesh and its motion are scaled together.
   double energy(const Eigen::MatrixXd& e, const RegularizationWeights& weights) const;
+  /// energy(F - t, weights) without forming the residuals.
+  double energy(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t,
+                const RegularizationWeights& weights) const;
   /// The factor ell^-md of that rescaling: E = energyScale() x (the sum with physical a_k and
   /// ell c_kl), the scale of the system matrix A in the energy (E = energyScale() |J x - t|^2).
   double energyScale() const;
