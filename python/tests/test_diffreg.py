@@ -283,3 +283,20 @@ def test_example_script(tmp_path):
     subprocess.run([sys.executable, script, "-o", str(out)], check=True,
                    env=dict(os.environ, MPLBACKEND="Agg"))
     assert out.stat().st_size > 10000
+
+
+# ---- installation ---------------------------------------------------------------------------------
+
+def test_installed_module_imports(tmp_path):
+    cmake, build = os.environ.get("DIFFREG_CMAKE"), os.environ.get("DIFFREG_BUILD_DIR")
+    relative = os.environ.get("DIFFREG_PYTHON_INSTALL_DIR")
+    if not (cmake and build and relative):
+        pytest.skip("run by ctest, which names the build")
+    prefix = tmp_path / "prefix"
+    subprocess.run([cmake, "--install", build, "--prefix", str(prefix)], check=True,
+                   stdout=subprocess.DEVNULL)
+    site = relative if os.path.isabs(relative) else str(prefix / relative)
+    env = dict(os.environ, PYTHONPATH=site)
+    out = subprocess.run([sys.executable, "-c", "import diffreg; print(diffreg.__file__)"],
+                         check=True, env=env, cwd=str(tmp_path), capture_output=True, text=True)
+    assert out.stdout.strip().startswith(site)
