@@ -174,6 +174,16 @@ def test_write_and_read_properties(tmp_path):
     assert "property float quality" in open(ply).read()
 
 
+def test_threads_solve_at_once():
+    """The GIL is released during solves: threads run side by side and agree."""
+    from concurrent.futures import ThreadPoolExecutor
+    V, E, handles, targets, _, _ = scenario("bar.obj", "bar-bend.json")
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        results = list(pool.map(lambda _: diffreg.deform(V, E, handles, targets)[0], range(3)))
+    for X in results[1:]:
+        np.testing.assert_allclose(X, results[0], rtol=0, atol=1e-10)
+
+
 # ---- errors ---------------------------------------------------------------------------------------
 
 def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
