@@ -38,8 +38,8 @@ py::array asArray(const py::handle& obj, const std::string& what, bool integer) 
 Eigen::MatrixXd toMatrix(const py::handle& obj, const char* what, Eigen::Index rows,
                          Eigen::Index cols) {
   const py::array a = asArray(obj, what, false);
-  const std::string expected = "(" + (rows < 0 ? std::string("n") : std::to_string(rows)) +
-                               ", " + (cols < 0 ? std::string("k") : std::to_string(cols)) + ")";
+  const std::string expected = "(" + (rows < 0 ? std::string("n") : std::to_string(rows)) + ", " +
+                               (cols < 0 ? std::string("k") : std::to_string(cols)) + ")";
   if (a.ndim() != 2 || (rows >= 0 && a.shape(0) != rows) || (cols >= 0 && a.shape(1) != cols))
     throw InvalidParameter(std::string(what) + ": expected shape " + expected + ", got " +
                            shapeText(a));
@@ -57,8 +57,8 @@ Eigen::MatrixXd toMatrix(const py::handle& obj, const char* what, Eigen::Index r
 Eigen::MatrixXd toPositions(const py::handle& obj, const char* what) {
   const py::array a = asArray(obj, what, false);
   if (a.ndim() != 2 || (a.shape(1) != 3 && a.shape(1) != 2) || a.shape(0) == 0)
-    throw InvalidParameter(std::string(what) + ": expected positions of shape (n, 3) or (n, 2), got " +
-                           shapeText(a));
+    throw InvalidParameter(std::string(what) +
+                           ": expected positions of shape (n, 3) or (n, 2), got " + shapeText(a));
   Eigen::MatrixXd p = toMatrix(a, what, -1, -1);
   if (p.cols() == 2) {
     p.conservativeResize(Eigen::NoChange, 3);
@@ -84,8 +84,8 @@ Eigen::VectorXd toVector(const py::handle& obj, const char* what, Eigen::Index s
 Eigen::MatrixXi toElements(const py::handle& obj, int numVertices) {
   const py::array a = asArray(obj, "E", true);
   if (a.ndim() != 2 || (a.shape(1) != 3 && a.shape(1) != 4) || a.shape(0) == 0)
-    throw InvalidParameter("E: expected elements of shape (m, 3) (triangles) or (m, 4) (tets), got " +
-                           shapeText(a));
+    throw InvalidParameter(
+        "E: expected elements of shape (m, 3) (triangles) or (m, 4) (tets), got " + shapeText(a));
   const auto c = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
   const Eigen::Index m = a.shape(0), k = a.shape(1);
   Eigen::MatrixXi e(m, k);
@@ -126,7 +126,8 @@ Mesh toMesh(const py::handle& V, const py::handle& E) {
   if (T.cols() == 4) {
     TetMesh tet;
     for (Eigen::Index i = 0; i < P.rows(); ++i) tet.points.push_back(P.row(i).transpose());
-    for (Eigen::Index k = 0; k < T.rows(); ++k) tet.tets.push_back({T(k, 0), T(k, 1), T(k, 2), T(k, 3)});
+    for (Eigen::Index k = 0; k < T.rows(); ++k)
+      tet.tets.push_back({T(k, 0), T(k, 1), T(k, 2), T(k, 3)});
     Mesh mesh(std::move(tet));
     validateMesh(mesh, source);
     return mesh;
@@ -139,8 +140,7 @@ Mesh toMesh(const py::handle& V, const py::handle& E) {
   for (Eigen::Index k = 0; k < T.rows(); ++k) {
     const int a = T(k, 0), b = T(k, 1), c = T(k, 2);
     if (a == b || b == c || a == c)
-      throw InvalidMesh(source + ": face " + std::to_string(k) +
-                        " (0-based) repeats a vertex");
+      throw InvalidMesh(source + ": face " + std::to_string(k) + " (0-based) repeats a vertex");
     if (!tri.add_face(vh[a], vh[b], vh[c]).is_valid())
       throw InvalidMesh(source + ": face " + std::to_string(k) +
                         " (0-based) makes the mesh non-manifold or flips its orientation");
@@ -248,9 +248,11 @@ std::map<std::string, std::string> toParamText(const py::dict& kwargs) {
     } else if (PyIndex_Check(value.ptr())) {
       out[name] = std::string(py::str(py::int_(py::reinterpret_borrow<py::object>(value))));
     } else if (PyFloat_Check(value.ptr()) || py::hasattr(value, "__float__")) {
-      out[name] = formatNumber(py::float_(py::reinterpret_borrow<py::object>(value)).cast<double>());
+      out[name] =
+          formatNumber(py::float_(py::reinterpret_borrow<py::object>(value)).cast<double>());
     } else {
-      throw InvalidParameter("parameter '" + name + "': expected a number, a bool or a string, got " +
+      throw InvalidParameter("parameter '" + name +
+                             "': expected a number, a bool or a string, got " +
                              std::string(py::str(py::type::of(value).attr("__name__"))));
     }
   }
@@ -260,15 +262,17 @@ std::map<std::string, std::string> toParamText(const py::dict& kwargs) {
 py::array fromMatrix(Eigen::MatrixXd m) {
   auto* heap = new Eigen::MatrixXd(std::move(m));
   py::capsule owner(heap, [](void* p) { delete static_cast<Eigen::MatrixXd*>(p); });
-  const auto rows = static_cast<py::ssize_t>(heap->rows()), cols = static_cast<py::ssize_t>(heap->cols());
-  return py::array_t<double>({rows, cols},
-                             {static_cast<py::ssize_t>(sizeof(double)),
-                              static_cast<py::ssize_t>(sizeof(double)) * rows},
-                             heap->data(), owner);
+  const auto rows = static_cast<py::ssize_t>(heap->rows()),
+             cols = static_cast<py::ssize_t>(heap->cols());
+  return py::array_t<double>(
+      {rows, cols},
+      {static_cast<py::ssize_t>(sizeof(double)), static_cast<py::ssize_t>(sizeof(double)) * rows},
+      heap->data(), owner);
 }
 
 py::array fromMatrix(Eigen::MatrixXi m) {
-  py::array_t<long long> out({static_cast<py::ssize_t>(m.rows()), static_cast<py::ssize_t>(m.cols())});
+  py::array_t<long long> out(
+      {static_cast<py::ssize_t>(m.rows()), static_cast<py::ssize_t>(m.cols())});
   auto w = out.mutable_unchecked<2>();
   for (Eigen::Index i = 0; i < m.rows(); ++i)
     for (Eigen::Index j = 0; j < m.cols(); ++j) w(i, j) = m(i, j);
@@ -283,12 +287,18 @@ py::array fromVector(Eigen::VectorXd v) {
 
 py::object fromJson(const nlohmann::json& j) {
   switch (j.type()) {
-    case nlohmann::json::value_t::null: return py::none();
-    case nlohmann::json::value_t::boolean: return py::bool_(j.get<bool>());
-    case nlohmann::json::value_t::number_integer: return py::int_(j.get<long long>());
-    case nlohmann::json::value_t::number_unsigned: return py::int_(j.get<unsigned long long>());
-    case nlohmann::json::value_t::number_float: return py::float_(j.get<double>());
-    case nlohmann::json::value_t::string: return py::str(j.get<std::string>());
+    case nlohmann::json::value_t::null:
+      return py::none();
+    case nlohmann::json::value_t::boolean:
+      return py::bool_(j.get<bool>());
+    case nlohmann::json::value_t::number_integer:
+      return py::int_(j.get<long long>());
+    case nlohmann::json::value_t::number_unsigned:
+      return py::int_(j.get<unsigned long long>());
+    case nlohmann::json::value_t::number_float:
+      return py::float_(j.get<double>());
+    case nlohmann::json::value_t::string:
+      return py::str(j.get<std::string>());
     case nlohmann::json::value_t::array: {
       py::list list;
       for (const auto& item : j) list.append(fromJson(item));
@@ -299,7 +309,8 @@ py::object fromJson(const nlohmann::json& j) {
       for (const auto& [key, value] : j.items()) dict[py::str(key)] = fromJson(value);
       return std::move(dict);
     }
-    default: return py::none();
+    default:
+      return py::none();
   }
 }
 
@@ -324,10 +335,13 @@ bool skipped(const std::string& name, const std::vector<std::string>& skip) {
 
 std::string pythonDefault(const ParamSpec& spec) {
   switch (spec.type) {
-    case ParamType::Bool: return spec.defaultValue == "true" ? "True" : "False";
+    case ParamType::Bool:
+      return spec.defaultValue == "true" ? "True" : "False";
     case ParamType::Float:
-    case ParamType::Int: return spec.defaultValue;
-    default: return "'" + spec.defaultValue + "'";
+    case ParamType::Int:
+      return spec.defaultValue;
+    default:
+      return "'" + spec.defaultValue + "'";
   }
 }
 
@@ -348,7 +362,8 @@ std::string paramDoc(const std::string& filter, const std::vector<std::string>& 
     out << "    " << spec.name << " : " << toString(spec.type);
     if (!spec.choices.empty()) {
       out << " {";
-      for (std::size_t i = 0; i < spec.choices.size(); ++i) out << (i ? ", " : "") << spec.choices[i];
+      for (std::size_t i = 0; i < spec.choices.size(); ++i)
+        out << (i ? ", " : "") << spec.choices[i];
       out << "}";
     } else if (hasRange(spec)) {
       out << " in " << rangeText(spec);

@@ -132,8 +132,8 @@ py::dict fileProperties(const Mesh& mesh, bool vertex) {
       const auto* p = dynamic_cast<const OpenMesh::PropertyT<double>*>(*it);
       if (p == nullptr) continue;
       const auto& data = p->data_vector();
-      out[py::str(p->name())] =
-          fromVector(Eigen::Map<const Eigen::VectorXd>(data.data(), static_cast<Eigen::Index>(data.size())));
+      out[py::str(p->name())] = fromVector(
+          Eigen::Map<const Eigen::VectorXd>(data.data(), static_cast<Eigen::Index>(data.size())));
     }
   };
   if (vertex)
@@ -149,8 +149,7 @@ py::tuple readArrays(const std::string& path, bool properties) {
     py::gil_scoped_release release;
     mesh = readMesh(path);
   }
-  if (!properties)
-    return py::make_tuple(fromMatrix(mesh.positions()), fromMatrix(mesh.elements()));
+  if (!properties) return py::make_tuple(fromMatrix(mesh.positions()), fromMatrix(mesh.elements()));
   return py::make_tuple(fromMatrix(mesh.positions()), fromMatrix(mesh.elements()),
                         fileProperties(mesh, true), fileProperties(mesh, false));
 }
@@ -162,7 +161,8 @@ py::tuple readHandleFile(const std::string& path, const py::object& V, const py:
   std::vector<double> ranges, magnitudes;
   for (const Handle& h : set.handles) {
     py::array_t<long long> ids(static_cast<py::ssize_t>(h.vertices.size()));
-    for (std::size_t i = 0; i < h.vertices.size(); ++i) ids.mutable_at(static_cast<py::ssize_t>(i)) = h.vertices[i];
+    for (std::size_t i = 0; i < h.vertices.size(); ++i)
+      ids.mutable_at(static_cast<py::ssize_t>(i)) = h.vertices[i];
     handles.append(ids);
     targets.append(fromMatrix(Eigen::MatrixXd(h.targets)));
     ranges.push_back(h.range);
@@ -182,14 +182,14 @@ void writeArrays(const std::string& path, const py::object& V, const py::object&
   if (!vertexProperties.is_none())
     for (const auto& [key, value] : vertexProperties.cast<py::dict>()) {
       const std::string name = py::str(key);
-      mesh.setVertexScalar(name, toVector(value, ("vertex property '" + name + "'").c_str(),
-                                          mesh.numVertices()));
+      mesh.setVertexScalar(
+          name, toVector(value, ("vertex property '" + name + "'").c_str(), mesh.numVertices()));
     }
   if (!elementProperties.is_none())
     for (const auto& [key, value] : elementProperties.cast<py::dict>()) {
       const std::string name = py::str(key);
-      mesh.setElementScalar(name, toVector(value, ("element property '" + name + "'").c_str(),
-                                           mesh.numElements()));
+      mesh.setElementScalar(
+          name, toVector(value, ("element property '" + name + "'").c_str(), mesh.numElements()));
     }
   WriteOptions options;
   options.vertexQuality = vertexQuality;
@@ -207,8 +207,8 @@ py::dict propertiesOf(const Mesh& mesh, bool vertex) {
 }
 
 py::dict runPipeline(const py::object& meshArg, const py::object& filters,
-                     const py::object& handles, const py::object& targets,
-                     const py::object& ranges, const py::object& magnitudes) {
+                     const py::object& handles, const py::object& targets, const py::object& ranges,
+                     const py::object& magnitudes) {
   Document doc;
   if (py::isinstance<py::str>(meshArg)) {
     const std::string path = meshArg.cast<std::string>();
@@ -234,7 +234,8 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
   }
   Pipeline pipeline;
   if (py::isinstance<py::str>(filters))
-    throw InvalidParameter("run: filters must be a list of filter strings, e.g. ['diffuse_weights t=0.01']");
+    throw InvalidParameter(
+        "run: filters must be a list of filter strings, e.g. ['diffuse_weights t=0.01']");
   for (const py::handle item : filters) {
     if (!py::isinstance<py::str>(item))
       throw InvalidParameter("run: every filter must be a string such as 'deform energy=arap'");
@@ -302,35 +303,37 @@ PYBIND11_MODULE(diffreg, m) {
   m.attr("__version__") = DIFFREG_VERSION_STRING;
 
   const std::string weightsArgs = "V, E, handles, ranges=None, magnitudes=None";
-  m.def("diffuse_weights",
-        [](const py::object& V, const py::object& E, const py::object& handles,
-           const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
-          return weightsOf(V, E, handles, ranges, magnitudes, "diffuse_weights", kwargs);
-        },
-        py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
-        py::arg("magnitudes") = py::none(),
-        ("diffuse_weights(" + weightsArgs + paramSignature("diffuse_weights") +
-         ") -> weights (n,)\n\n"
-         "Diffused regularization weights: heat flows from the handles (value m_j = "
-         "magnitudes[j], range r_j = ranges[j], both 1 by default) for the time t, as the "
-         "filter diffuse_weights of the diffreg tool.\n\n" +
-         paramDoc("diffuse_weights"))
-            .c_str());
-  m.def("rbf_weights",
-        [](const py::object& V, const py::object& E, const py::object& handles,
-           const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
-          return weightsOf(V, E, handles, ranges, magnitudes, "rbf_weights", kwargs);
-        },
-        py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
-        py::arg("magnitudes") = py::none(),
-        ("rbf_weights(" + weightsArgs + paramSignature("rbf_weights") +
-         ") -> weights (n,)\n\n"
-         "The paper's RBF baseline weights, sum_j m_j exp(-(d / (r_j sigma))^2), as the filter "
-         "rbf_weights of the diffreg tool.\n\n" +
-         paramDoc("rbf_weights"))
-            .c_str());
-  m.def("deform", &deformArrays, py::arg("V"), py::arg("E"), py::arg("handles"),
-        py::arg("targets"), py::arg("weights") = py::none(),
+  m.def(
+      "diffuse_weights",
+      [](const py::object& V, const py::object& E, const py::object& handles,
+         const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
+        return weightsOf(V, E, handles, ranges, magnitudes, "diffuse_weights", kwargs);
+      },
+      py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
+      py::arg("magnitudes") = py::none(),
+      ("diffuse_weights(" + weightsArgs + paramSignature("diffuse_weights") +
+       ") -> weights (n,)\n\n"
+       "Diffused regularization weights: heat flows from the handles (value m_j = "
+       "magnitudes[j], range r_j = ranges[j], both 1 by default) for the time t, as the "
+       "filter diffuse_weights of the diffreg tool.\n\n" +
+       paramDoc("diffuse_weights"))
+          .c_str());
+  m.def(
+      "rbf_weights",
+      [](const py::object& V, const py::object& E, const py::object& handles,
+         const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
+        return weightsOf(V, E, handles, ranges, magnitudes, "rbf_weights", kwargs);
+      },
+      py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
+      py::arg("magnitudes") = py::none(),
+      ("rbf_weights(" + weightsArgs + paramSignature("rbf_weights") +
+       ") -> weights (n,)\n\n"
+       "The paper's RBF baseline weights, sum_j m_j exp(-(d / (r_j sigma))^2), as the filter "
+       "rbf_weights of the diffreg tool.\n\n" +
+       paramDoc("rbf_weights"))
+          .c_str());
+  m.def("deform", &deformArrays, py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("targets"),
+        py::arg("weights") = py::none(),
         ("deform(V, E, handles, targets, weights=None" + paramSignature("deform") +
          ") -> (X, info)\n\n"
          "Deforms the mesh from its rest shape V with the handle vertices moved to their "

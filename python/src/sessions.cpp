@@ -153,7 +153,8 @@ class PyDeformationSession {
     }
     session_->setTargets(t);
   }
-  void setRegularization(const std::string& mode, const py::object& beta, const py::object& weights) {
+  void setRegularization(const std::string& mode, const py::object& beta,
+                         const py::object& weights) {
     std::map<std::string, std::string> values{{"regularization", mode}};
     if (!beta.is_none()) values["beta"] = formatNumber(beta.cast<double>());
     const ParamMap params = paramsOf("deform", values);
@@ -178,8 +179,8 @@ class PyDeformationSession {
   py::tuple solveFrom(const py::object& initial, const py::object& iterations,
                       const py::object& tolerance) {
     const auto [cap, tol] = limits(iterations, tolerance);
-    const Eigen::MatrixXd X0 = toMatrix(initial, "initial", shape_->mesh.numVertices(), 3)
-                                   .leftCols(shape_->disc.dim());
+    const Eigen::MatrixXd X0 =
+        toMatrix(initial, "initial", shape_->mesh.numVertices(), 3).leftCols(shape_->disc.dim());
     DeformationResult r;
     {
       py::gil_scoped_release release;
@@ -276,8 +277,7 @@ void bindSessions(py::module_& m) {
            "set_targets(targets)\n\nOne (k_j, 3) array per handle, or one array stacked handle "
            "by handle.")
       .def("set_regularization", &PyDeformationSession::setRegularization,
-           py::arg("regularization"), py::arg("beta") = py::none(),
-           py::arg("weights") = py::none(),
+           py::arg("regularization"), py::arg("beta") = py::none(), py::arg("weights") = py::none(),
            "set_regularization(regularization, beta=None, weights=None)\n\n'none', 'uniform' "
            "(with beta, default the deform filter's) or 'nonuniform' (with weights, one per "
            "vertex).")
