@@ -9,6 +9,7 @@
 #include "discretization/discretization.h"
 #include "mesh/io.h"
 #include "pipeline/document.h"
+#include "pipeline/mlx.h"
 #include "pipeline/pipeline.h"
 
 #include <diffreg/version.h>
@@ -208,7 +209,7 @@ py::dict propertiesOf(const Mesh& mesh, bool vertex) {
 
 py::dict runPipeline(const py::object& meshArg, const py::object& filters,
                      const py::object& handles, const py::object& targets, const py::object& ranges,
-                     const py::object& magnitudes) {
+                     const py::object& magnitudes, const py::object& script) {
   Document doc;
   if (py::isinstance<py::str>(meshArg)) {
     const std::string path = meshArg.cast<std::string>();
@@ -233,6 +234,9 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
     doc = makeDocument(std::move(mesh), std::move(set));
   }
   Pipeline pipeline;
+  if (!script.is_none())  // a MeshLab .mlx script's steps first, as the tool's -s
+    for (const Step& step : readFilterScript(script.cast<std::string>()))
+      pipeline.add(step.filter, step.values);
   if (py::isinstance<py::str>(filters))
     throw InvalidParameter(
         "run: filters must be a list of filter strings, e.g. ['diffuse_weights t=0.01']");
@@ -379,15 +383,18 @@ PYBIND11_MODULE(diffreg, m) {
         "vertex_properties / element_properties: dicts name -> (n,) / (m,) arrays. PLY writes "
         "the property `vertex_quality` as vertex quality (with viridis colours when colors) and "
         "`face_quality` as face quality; .om keeps all of them.");
-  m.def("run", &runPipeline, py::arg("mesh"), py::arg("filters"), py::arg("handles") = py::none(),
-        py::arg("targets") = py::none(), py::arg("ranges") = py::none(),
-        py::arg("magnitudes") = py::none(),
-        "run(mesh, filters, handles=None, targets=None, ranges=None, magnitudes=None) -> dict\n\n"
+  m.def("run", &runPipeline, py::arg("mesh"), py::arg("filters") = py::list(),
+        py::arg("handles") = py::none(), py::arg("targets") = py::none(),
+        py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
+        py::arg("script") = py::none(),
+        "run(mesh, filters=[], handles=None, targets=None, ranges=None, magnitudes=None, "
+        "script=None) -> dict\n\n"
         "Runs a pipeline of the diffreg tool's filters, given as its --filter strings (e.g. "
         "['diffuse_weights t=0.01', 'deform energy=arap regularization=nonuniform', "
         "'measure']). mesh: a mesh file path or a tuple (V, E). handles: a handle file path "
         "(the tool's --handles JSON) or a list of vertex-id arrays with targets, ranges, "
-        "magnitudes as for deform(). Every step is checked before any runs. Returns V, E, "
+        "magnitudes as for deform(). script: a MeshLab .mlx filter script whose steps run "
+        "first (the tool's -s). Every step is checked before any runs. Returns V, E, "
         "vertex_properties, element_properties (dicts of arrays, e.g. 'diffreg:weight') and "
         "report (the tool's --report JSON as a dict).");
   m.def("filters", &filterTables,

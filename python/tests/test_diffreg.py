@@ -105,6 +105,19 @@ def test_run_on_arrays_with_handle_lists():
     np.testing.assert_allclose(result["V"], X, atol=1e-12)
 
 
+def test_run_with_a_meshlab_script(tmp_path):
+    script = tmp_path / "weights.mlx"
+    script.write_text('<!DOCTYPE FilterScript>\n<FilterScript>\n'
+                      ' <filter name="diffuse_weights"/>\n</FilterScript>\n')
+    both = diffreg.run(mesh("bar.obj"), ["deform regularization=nonuniform"],
+                       handles=mesh("bar-bend.json"), script=str(script))
+    plain = diffreg.run(mesh("bar.obj"), ["diffuse_weights", "deform regularization=nonuniform"],
+                        handles=mesh("bar-bend.json"))
+    np.testing.assert_allclose(both["V"], plain["V"], rtol=0, atol=1e-12)
+    with pytest.raises(OSError):
+        diffreg.run(mesh("bar.obj"), script=str(tmp_path / "missing.mlx"))
+
+
 # ---- the C++ API on the shipped meshes ----------------------------------------------------------
 
 @pytest.mark.parametrize("mesh_name,handles_name", SCENARIOS)
