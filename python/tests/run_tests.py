@@ -2,6 +2,8 @@
 import os
 import sys
 
+sys.dont_write_bytecode = True  # nothing written into the source tree (no __pycache__)
+
 try:
     import pytest
 except ImportError:
