@@ -190,7 +190,7 @@ def test_write_and_read_properties(tmp_path):
 def test_threads_solve_at_once():
     """The GIL is released during solves: threads run side by side and agree."""
     from concurrent.futures import ThreadPoolExecutor
-    V, E, handles, targets, _, _ = scenario("bar.obj", "bar-bend.json")
+    V, E, handles, targets, _, _ = scenario("cylinder.obj", "cylinder-twist.json")
     with ThreadPoolExecutor(max_workers=3) as pool:
         results = list(pool.map(lambda _: diffreg.deform(V, E, handles, targets)[0], range(3)))
     for X in results[1:]:
