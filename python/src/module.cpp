@@ -1,0 +1,404 @@
+// The Python module `diffreg`: numpy arrays in and out of the library's one-shot operators,
+// which run the same filters (and parameter tables) as the `diffreg` command-line tool, plus
+// the editing sessions (sessions.cpp).
+#include "convert.h"
+
+#include "core/error.h"
+#include "deformation/metrics.h"
+#include "deformation/regularizer.h"
+#include "discretization/discretization.h"
+#include "mesh/io.h"
+#include "pipeline/document.h"
+#include "pipeline/mlx.h"
+#include "pipeline/pipeline.h"
+
+#include <diffreg/version.h>
+
+namespace diffreg::python {
+
+void bindSessions(py::module_& m);
+
+namespace {
+
+Document makeDocument(Mesh mesh, HandleSet handles) {
+  Document doc;
+  doc.rest = mesh.positions();
+  doc.mesh = std::move(mesh);
+  doc.handles = std::move(handles);
+  return doc;
+}
+
+// Applies one built-in filter with the keyword arguments as its parameters (validated and
+// completed from its table), the GIL released while it works. Returns the filter's result as
+// the CLI's report entry (data, params, solver counters).
+py::dict applyFilter(Document& doc, const std::string& name, const py::dict& kwargs) {
+  Pipeline pipeline;
+  pipeline.add(name, toParamText(kwargs));
+  nlohmann::json report;
+  {
+    py::gil_scoped_release release;
+    report = pipeline.run(doc);
+  }
+  return fromJson(report["filters"][0]).cast<py::dict>();
+}
+
+py::array weightsOf(const py::object& V, const py::object& E, const py::object& handles,
+                    const py::object& ranges, const py::object& magnitudes,
+                    const std::string& filter, const py::kwargs& kwargs) {
+  Mesh mesh = toMesh(V, E);
+  HandleSet set = toHandles(mesh, handles, py::none(), ranges, magnitudes);
+  Document doc = makeDocument(std::move(mesh), std::move(set));
+  applyFilter(doc, filter, kwargs);
+  return fromVector(doc.mesh.vertexScalar(prop::weight));
+}
+
+py::tuple deformArrays(const py::object& V, const py::object& E, const py::object& handles,
+                       const py::object& targets, const py::object& weights,
+                       const py::kwargs& kwargs) {
+  Mesh mesh = toMesh(V, E);
+  HandleSet set = toHandles(mesh, handles, targets, py::none(), py::none());
+  const int n = mesh.numVertices();
+  if (!weights.is_none()) mesh.setVertexScalar(prop::weight, toVector(weights, "weights", n));
+  Document doc = makeDocument(std::move(mesh), std::move(set));
+  const std::string regularization =
+      kwargs.contains("regularization") && !kwargs["regularization"].is_none()
+          ? py::str(kwargs["regularization"]).cast<std::string>()
+          : "";
+  if (regularization == "nonuniform" && weights.is_none())
+    throw InvalidParameter(
+        "deform: regularization nonuniform needs weights (one per vertex, e.g. from "
+        "diffuse_weights or rbf_weights)");
+  py::dict info = applyFilter(doc, "deform", kwargs);
+  return py::make_tuple(fromMatrix(doc.mesh.positions()), info);
+}
+
+py::dict measureArrays(const py::object& V, const py::object& E, const py::object& X,
+                       const py::object& weights, const py::object& reference,
+                       const py::kwargs& kwargs) {
+  // energy, regularization and beta with the deform filter's names, defaults and checks.
+  std::vector<ParamSpec> specs;
+  for (const ParamSpec& spec : Registry::builtin().get("deform").params())
+    if (spec.name == "energy" || spec.name == "regularization" || spec.name == "beta")
+      specs.push_back(spec);
+  const ParamMap params("measure", specs, toParamText(kwargs));
+  const Mesh mesh = toMesh(V, E);
+  const Discretization disc(mesh);
+  const Eigen::Index n = mesh.numVertices();
+  const Eigen::MatrixXd positions = toMatrix(X, "X", n, -1);
+  if (positions.cols() < disc.dim() || positions.cols() > 3)
+    throw InvalidParameter("X: expected shape (" + std::to_string(n) + ", 3), got (" +
+                           std::to_string(n) + ", " + std::to_string(positions.cols()) + ")");
+  const Energy energy = parseEnergy(params.getString("energy"));
+  const Regularization mode = parseRegularization(params.getString("regularization"));
+  Eigen::VectorXd w;
+  if (mode == Regularization::Nonuniform) {
+    if (weights.is_none())
+      throw InvalidParameter("measure: regularization nonuniform needs weights (one per vertex)");
+    w = toVector(weights, "weights", n);
+  }
+  Eigen::MatrixXd ref;
+  if (!reference.is_none())
+    ref = toMatrix(reference, "reference", n, positions.cols()).leftCols(disc.dim());
+  DeformationMetrics metrics;
+  {
+    py::gil_scoped_release release;
+    const RegularizationWeights rw =
+        makeRegularizationWeights(disc, mode, params.getFloat("beta"), w);
+    metrics = measureDeformation(disc, energy, positions.leftCols(disc.dim()), rw,
+                                 reference.is_none() ? nullptr : &ref);
+  }
+  py::dict out;
+  out["D_max"] = metrics.dMax;
+  out["D_ave"] = metrics.dAve;
+  out["D_dev"] = metrics.dDev;
+  out["dist"] = metrics.dist ? py::object(py::float_(*metrics.dist)) : py::object(py::none());
+  out["inverted"] = metrics.inverted;
+  out["energy"] = metrics.energy;
+  out["distortion"] = fromVector(elementDistortion(disc, energy, positions.leftCols(disc.dim())));
+  return out;
+}
+
+// Every double vertex (element) property of a mesh read from a file, e.g. the diffreg:...
+// properties an .om file keeps.
+py::dict fileProperties(const Mesh& mesh, bool vertex) {
+  py::dict out;
+  if (mesh.isTet()) {
+    for (const auto& name : vertex ? mesh.vertexScalarNames() : mesh.elementScalarNames())
+      out[py::str(name)] = fromVector(vertex ? mesh.vertexScalar(name) : mesh.elementScalar(name));
+    return out;
+  }
+  const TriMesh& tri = mesh.tri();
+  const auto collect = [&](auto begin, auto end) {
+    for (auto it = begin; it != end; ++it) {
+      const auto* p = dynamic_cast<const OpenMesh::PropertyT<double>*>(*it);
+      if (p == nullptr) continue;
+      const auto& data = p->data_vector();
+      out[py::str(p->name())] = fromVector(
+          Eigen::Map<const Eigen::VectorXd>(data.data(), static_cast<Eigen::Index>(data.size())));
+    }
+  };
+  if (vertex)
+    collect(tri.vprops_begin(), tri.vprops_end());
+  else
+    collect(tri.fprops_begin(), tri.fprops_end());
+  return out;
+}
+
+py::tuple readArrays(const std::string& path, bool properties) {
+  Mesh mesh;
+  {
+    py::gil_scoped_release release;
+    mesh = readMesh(path);
+  }
+  if (!properties) return py::make_tuple(fromMatrix(mesh.positions()), fromMatrix(mesh.elements()));
+  return py::make_tuple(fromMatrix(mesh.positions()), fromMatrix(mesh.elements()),
+                        fileProperties(mesh, true), fileProperties(mesh, false));
+}
+
+py::tuple readHandleFile(const std::string& path, const py::object& V, const py::object& E) {
+  const Mesh mesh = toMesh(V, E);
+  const HandleSet set = readHandles(path, mesh);
+  py::list handles, targets, names;
+  std::vector<double> ranges, magnitudes;
+  for (const Handle& h : set.handles) {
+    py::array_t<long long> ids(static_cast<py::ssize_t>(h.vertices.size()));
+    for (std::size_t i = 0; i < h.vertices.size(); ++i)
+      ids.mutable_at(static_cast<py::ssize_t>(i)) = h.vertices[i];
+    handles.append(ids);
+    targets.append(fromMatrix(Eigen::MatrixXd(h.targets)));
+    ranges.push_back(h.range);
+    magnitudes.push_back(h.magnitude);
+    names.append(h.name);
+  }
+  const auto vector = [](std::vector<double>& v) {
+    return fromVector(Eigen::Map<Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
+  };
+  return py::make_tuple(handles, targets, vector(ranges), vector(magnitudes), names);
+}
+
+void writeArrays(const std::string& path, const py::object& V, const py::object& E,
+                 const py::object& vertexProperties, const py::object& elementProperties,
+                 const std::string& vertexQuality, const std::string& faceQuality, bool colors) {
+  Mesh mesh = toMesh(V, E);
+  if (!vertexProperties.is_none())
+    for (const auto& [key, value] : vertexProperties.cast<py::dict>()) {
+      const std::string name = py::str(key);
+      mesh.setVertexScalar(
+          name, toVector(value, ("vertex property '" + name + "'").c_str(), mesh.numVertices()));
+    }
+  if (!elementProperties.is_none())
+    for (const auto& [key, value] : elementProperties.cast<py::dict>()) {
+      const std::string name = py::str(key);
+      mesh.setElementScalar(
+          name, toVector(value, ("element property '" + name + "'").c_str(), mesh.numElements()));
+    }
+  WriteOptions options;
+  options.vertexQuality = vertexQuality;
+  options.faceQuality = faceQuality;
+  options.colors = colors;
+  py::gil_scoped_release release;
+  writeMesh(path, mesh, options);
+}
+
+py::dict propertiesOf(const Mesh& mesh, bool vertex) {
+  py::dict out;
+  for (const auto& name : vertex ? mesh.vertexScalarNames() : mesh.elementScalarNames())
+    out[py::str(name)] = fromVector(vertex ? mesh.vertexScalar(name) : mesh.elementScalar(name));
+  return out;
+}
+
+py::dict runPipeline(const py::object& meshArg, const py::object& filters,
+                     const py::object& handles, const py::object& targets, const py::object& ranges,
+                     const py::object& magnitudes, const py::object& script) {
+  Document doc;
+  if (py::isinstance<py::str>(meshArg)) {
+    const std::string path = meshArg.cast<std::string>();
+    if (py::isinstance<py::str>(handles)) {
+      doc = Document::load(path, handles.cast<std::string>());
+    } else {
+      doc = Document::load(path);
+      if (!handles.is_none())
+        doc.handles = toHandles(doc.mesh, handles, targets, ranges, magnitudes);
+    }
+  } else {
+    if (!py::isinstance<py::tuple>(meshArg) && !py::isinstance<py::list>(meshArg))
+      throw InvalidParameter("run: mesh must be a file path or a tuple (V, E)");
+    const py::sequence ve = meshArg.cast<py::sequence>();
+    if (ve.size() != 2) throw InvalidParameter("run: mesh must be a file path or a tuple (V, E)");
+    Mesh mesh = toMesh(ve[0], ve[1]);
+    HandleSet set;
+    if (py::isinstance<py::str>(handles))
+      set = readHandles(handles.cast<std::string>(), mesh);
+    else if (!handles.is_none())
+      set = toHandles(mesh, handles, targets, ranges, magnitudes);
+    doc = makeDocument(std::move(mesh), std::move(set));
+  }
+  Pipeline pipeline;
+  if (!script.is_none())  // a MeshLab .mlx script's steps first, as the tool's -s
+    for (const Step& step : readFilterScript(script.cast<std::string>()))
+      pipeline.add(step.filter, step.values);
+  if (py::isinstance<py::str>(filters))
+    throw InvalidParameter(
+        "run: filters must be a list of filter strings, e.g. ['diffuse_weights t=0.01']");
+  for (const py::handle item : filters) {
+    if (!py::isinstance<py::str>(item))
+      throw InvalidParameter("run: every filter must be a string such as 'deform energy=arap'");
+    const auto [name, values] = parseFilterSpec(item.cast<std::string>());
+    pipeline.add(name, values);
+  }
+  nlohmann::json report;
+  {
+    py::gil_scoped_release release;
+    report = pipeline.run(doc);
+  }
+  py::dict out;
+  out["V"] = fromMatrix(doc.mesh.positions());
+  out["E"] = fromMatrix(doc.mesh.elements());
+  out["vertex_properties"] = propertiesOf(doc.mesh, true);
+  out["element_properties"] = propertiesOf(doc.mesh, false);
+  out["report"] = fromJson(report);
+  return out;
+}
+
+py::list filterTables() {
+  py::list out;
+  const Registry& registry = Registry::builtin();
+  for (const auto& name : registry.names()) {
+    const Filter& filter = registry.get(name);
+    py::list params;
+    for (const ParamSpec& spec : filter.params()) {
+      py::dict p;
+      p["name"] = spec.name;
+      p["type"] = toString(spec.type);
+      p["default"] = spec.defaultValue;
+      p["choices"] = spec.choices;
+      if (hasRange(spec)) p["range"] = py::make_tuple(spec.min, spec.max);
+      p["help"] = spec.help;
+      params.append(p);
+    }
+    py::dict f;
+    f["name"] = name;
+    f["description"] = filter.description();
+    f["params"] = params;
+    out.append(f);
+  }
+  return out;
+}
+
+}  // namespace
+
+}  // namespace diffreg::python
+
+PYBIND11_MODULE(diffreg, m) {
+  using namespace diffreg::python;
+  namespace dr = diffreg;
+  py::options options;
+  options.disable_function_signatures();  // the docstrings carry them, from the filter tables
+  registerExceptions();
+
+  m.doc() =
+      "Regularized variational mesh deformation with diffused non-uniform weights (Zhu, Li, "
+      "Zhang, Song, CAD 2016).\n\n"
+      "numpy in and out: positions V (n, 3) float64, elements E (m, 3) triangles or (m, 4) "
+      "tets, integer. Handles are a list of vertex-id arrays, one per handle. Parameters have "
+      "the names, defaults and checks of the `diffreg` tool's filters (see filters()). Errors "
+      "raise ValueError (invalid parameter, mesh or system) or OSError (files) with the "
+      "tool's one-line message.";
+  m.attr("__version__") = DIFFREG_VERSION_STRING;
+
+  const std::string weightsArgs = "V, E, handles, ranges=None, magnitudes=None";
+  m.def(
+      "diffuse_weights",
+      [](const py::object& V, const py::object& E, const py::object& handles,
+         const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
+        return weightsOf(V, E, handles, ranges, magnitudes, "diffuse_weights", kwargs);
+      },
+      py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
+      py::arg("magnitudes") = py::none(),
+      ("diffuse_weights(" + weightsArgs + paramSignature("diffuse_weights") +
+       ") -> weights (n,)\n\n"
+       "Diffused regularization weights: heat flows from the handles (value m_j = "
+       "magnitudes[j], range r_j = ranges[j], both 1 by default) for the time t, as the "
+       "filter diffuse_weights of the diffreg tool.\n\n" +
+       paramDoc("diffuse_weights"))
+          .c_str());
+  m.def(
+      "rbf_weights",
+      [](const py::object& V, const py::object& E, const py::object& handles,
+         const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
+        return weightsOf(V, E, handles, ranges, magnitudes, "rbf_weights", kwargs);
+      },
+      py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
+      py::arg("magnitudes") = py::none(),
+      ("rbf_weights(" + weightsArgs + paramSignature("rbf_weights") +
+       ") -> weights (n,)\n\n"
+       "The paper's RBF baseline weights, sum_j m_j exp(-(d / (r_j sigma))^2), as the filter "
+       "rbf_weights of the diffreg tool.\n\n" +
+       paramDoc("rbf_weights"))
+          .c_str());
+  m.def("deform", &deformArrays, py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("targets"),
+        py::arg("weights") = py::none(),
+        ("deform(V, E, handles, targets, weights=None" + paramSignature("deform") +
+         ") -> (X, info)\n\n"
+         "Deforms the mesh from its rest shape V with the handle vertices moved to their "
+         "targets (hard constraints), as the filter deform of the diffreg tool. targets: one "
+         "(k_j, 3) array per handle, or one array stacked handle by handle. weights: one per "
+         "vertex, for regularization='nonuniform'. X is (n, 3) (planar meshes keep z). info "
+         "is the tool's report entry: energies (per iteration), iterations, converged, "
+         "criterion, initial_guess, local_step, acceleration, the solver counters symbolic, "
+         "numeric, solves and their seconds, params.\n\n" +
+         paramDoc("deform"))
+            .c_str());
+  m.def("measure", &measureArrays, py::arg("V"), py::arg("E"), py::arg("X"),
+        py::arg("weights") = py::none(), py::arg("reference") = py::none(),
+        ("measure(V, E, X, weights=None, reference=None" +
+         paramSignature("deform", {"local_step", "acceleration", "iterations", "tolerance"}) +
+         ") -> dict\n\n"
+         "The paper's Table-1 metrics of the deformation X of the rest shape (V, E): D_max, "
+         "D_ave, D_dev (distortion per element, max, area-weighted mean and deviation), "
+         "inverted (elements), energy (the regularized energy with energy, regularization, "
+         "beta, weights) and dist (RMS distance to `reference`, e.g. the same edit with "
+         "regularization='none'; None without one), and distortion, the per-element D_k "
+         "(the tool's diffreg:distortion).\n\n" +
+         paramDoc("deform", {"local_step", "acceleration", "iterations", "tolerance"}))
+            .c_str());
+  m.def("read_mesh", &readArrays, py::arg("path"), py::arg("properties") = false,
+        "read_mesh(path, properties=False) -> (V, E) or (V, E, vertex_properties, "
+        "element_properties)\n\nReads OBJ, OFF, PLY, OM, Medit .mesh or TetGen .node/.ele "
+        "with the tool's checks: V (n, 3) float64, E (m, 3) triangles or (m, 4) tets, int64. "
+        "properties=True adds dicts name -> array of the double properties the file keeps (an "
+        ".om file written by the tool keeps diffreg:weight, diffreg:distortion, ...). Raises "
+        "OSError for an unreadable file, ValueError for an invalid mesh.");
+  m.def("read_handles", &readHandleFile, py::arg("path"), py::arg("V"), py::arg("E"),
+        "read_handles(path, V, E) -> (handles, targets, ranges, magnitudes, names)\n\nReads "
+        "a handle file (the tool's --handles JSON) against the rest shape (V, E): the vertex "
+        "ids and (k_j, 3) targets of each handle, ready for deform() and diffuse_weights().");
+  m.def("write_mesh", &writeArrays, py::arg("path"), py::arg("V"), py::arg("E"),
+        py::arg("vertex_properties") = py::none(), py::arg("element_properties") = py::none(),
+        py::arg("vertex_quality") = std::string(dr::prop::weight),
+        py::arg("face_quality") = std::string(dr::prop::distortion), py::arg("colors") = true,
+        "write_mesh(path, V, E, vertex_properties=None, element_properties=None, "
+        "vertex_quality='diffreg:weight', face_quality='diffreg:distortion', colors=True)\n\n"
+        "Writes OBJ/OFF/PLY/OM (triangles) or .mesh/PLY boundary (tets), atomically. "
+        "vertex_properties / element_properties: dicts name -> (n,) / (m,) arrays. PLY writes "
+        "the property `vertex_quality` as vertex quality (with viridis colours when colors) and "
+        "`face_quality` as face quality; .om keeps all of them.");
+  m.def("run", &runPipeline, py::arg("mesh"), py::arg("filters") = py::list(),
+        py::arg("handles") = py::none(), py::arg("targets") = py::none(),
+        py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
+        py::arg("script") = py::none(),
+        "run(mesh, filters=[], handles=None, targets=None, ranges=None, magnitudes=None, "
+        "script=None) -> dict\n\n"
+        "Runs a pipeline of the diffreg tool's filters, given as its --filter strings (e.g. "
+        "['diffuse_weights t=0.01', 'deform energy=arap regularization=nonuniform', "
+        "'measure']). mesh: a mesh file path or a tuple (V, E). handles: a handle file path "
+        "(the tool's --handles JSON) or a list of vertex-id arrays with targets, ranges, "
+        "magnitudes as for deform(). script: a MeshLab .mlx filter script whose steps run "
+        "first (the tool's -s). Every step is checked before any runs. Returns V, E, "
+        "vertex_properties, element_properties (dicts of arrays, e.g. 'diffreg:weight') and "
+        "report (the tool's --report JSON as a dict).");
+  m.def("filters", &filterTables,
+        "filters() -> list\n\nEvery filter of the diffreg tool with its description and "
+        "parameter table (name, type, default as text, choices, range, help).");
+  bindSessions(m);
+}

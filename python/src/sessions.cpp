@@ -1,0 +1,312 @@
+// The editing sessions of the paper's Fig. 5 for Python: DiffusionWeights and
+// DeformationSession own their discretization and keep their factorizations between calls;
+// `stats` counts the work (symbolic analyses, numeric factorizations, solves).
+#include "convert.h"
+
+#include "core/error.h"
+#include "deformation/deformer.h"
+#include "discretization/discretization.h"
+#include "weights/diffusion.h"
+
+#include <memory>
+
+namespace diffreg::python {
+
+namespace {
+
+// A filter's table with `values` (validated, defaults filled in).
+ParamMap paramsOf(const std::string& filter, const std::map<std::string, std::string>& values) {
+  return ParamMap(filter, Registry::builtin().get(filter).params(), values);
+}
+
+// The options of the deform filter's parameters (plugins/deform/deform.cpp maps them the same).
+DeformationOptions deformationOptions(const ParamMap& params) {
+  DeformationOptions options;
+  options.energy = parseEnergy(params.getString("energy"));
+  options.regularization = parseRegularization(params.getString("regularization"));
+  options.beta = params.getFloat("beta");
+  options.localStep = parseLocalStep(params.getString("local_step"));
+  options.acceleration = parseAcceleration(params.getString("acceleration"));
+  options.maxIterations = params.getInt("iterations");
+  options.relTolerance = params.getFloat("tolerance");
+  return options;
+}
+
+DiffusionParams diffusionParams(const ParamMap& params) {
+  DiffusionParams p;
+  p.t = params.getFloat("t");
+  p.unit = parseTimeUnit(params.getString("t_unit"));
+  p.order = parseDiffusionOrder(params.getString("order"));
+  p.steps = params.getInt("steps");
+  return p;
+}
+
+// The rest mesh and its discretization, which the C++ sessions refer to.
+struct Shape {
+  Shape(const py::object& V, const py::object& E) : mesh(toMesh(V, E)), disc(mesh) {}
+  Mesh mesh;
+  Discretization disc;
+};
+
+class PyDiffusionWeights {
+ public:
+  PyDiffusionWeights(const py::object& V, const py::object& E, const py::kwargs& kwargs)
+      : shape_(std::make_unique<Shape>(V, E)), session_(shape_->disc) {
+    values_ = paramsOf("diffuse_weights", toParamText(kwargs)).text();
+    session_.setParams(diffusionParams(paramsOf("diffuse_weights", values_)));
+  }
+  void setHandles(const py::object& handles, const py::object& ranges,
+                  const py::object& magnitudes) {
+    const HandleSet set = toHandles(shape_->mesh, handles, py::none(), ranges, magnitudes);
+    session_.setHandles(set);
+    count_ = static_cast<int>(set.handles.size());
+  }
+  void setRange(int handle, double r) { session_.setRange(checked(handle), r); }
+  void setMagnitude(int handle, double m) { session_.setMagnitude(checked(handle), m); }
+  void setParams(const py::kwargs& kwargs) {
+    std::map<std::string, std::string> values = values_;
+    for (const auto& [key, value] : toParamText(kwargs)) values[key] = value;
+    const ParamMap params = paramsOf("diffuse_weights", values);
+    session_.setParams(diffusionParams(params));
+    values_ = params.text();
+  }
+  py::array solve() {
+    if (count_ == 0) throw InvalidParameter("DiffusionWeights.solve: call set_handles first");
+    Eigen::VectorXd w;
+    {
+      py::gil_scoped_release release;
+      w = session_.solve();
+    }
+    return fromVector(std::move(w));
+  }
+  py::dict params() const {
+    py::dict d;
+    for (const auto& [key, value] : values_) d[py::str(key)] = value;
+    return d;
+  }
+  double absoluteTime() const { return session_.absoluteTime(); }
+  py::dict stats() const { return fromStats(session_.stats()); }
+
+ private:
+  int checked(int handle) const {
+    if (handle < 0 || handle >= count_)
+      throw InvalidParameter("handle " + std::to_string(handle) + " out of range (" +
+                             std::to_string(count_) + " handles)");
+    return handle;
+  }
+  std::unique_ptr<Shape> shape_;  // before session_, which refers to it
+  DiffusionWeights session_;
+  std::map<std::string, std::string> values_;
+  int count_ = 0;
+};
+
+py::dict resultInfo(const DeformationResult& r, const SolverStats& stats) {
+  py::dict info;
+  info["energies"] = r.energies;
+  info["iterations"] = r.iterations;
+  info["converged"] = r.converged;
+  info["criterion"] = r.criterion;
+  info["accelerated_iterations"] = r.accelerated;
+  info["initial_guess"] = r.initialGuess;
+  info["seconds"] = r.seconds;
+  for (const auto& [key, value] : fromStats(stats)) info[key] = value;
+  return info;
+}
+
+class PyDeformationSession {
+ public:
+  PyDeformationSession(const py::object& V, const py::object& E, const py::object& weights,
+                       const py::kwargs& kwargs)
+      : shape_(std::make_unique<Shape>(V, E)) {
+    DeformationOptions options = deformationOptions(paramsOf("deform", toParamText(kwargs)));
+    if (options.regularization == Regularization::Nonuniform) {
+      if (weights.is_none())
+        throw InvalidParameter("DeformationSession: regularization nonuniform needs weights");
+      options.weights = toVector(weights, "weights", shape_->mesh.numVertices());
+    }
+    session_ = std::make_unique<DeformationSession>(shape_->disc, options);
+  }
+  void setHandles(const py::object& handles) {
+    const HandleSet set = toHandles(shape_->mesh, handles, py::none(), py::none(), py::none());
+    vertices_ = set.allVertices();
+    session_->setHandles(vertices_);
+    perHandle_.clear();
+    for (const Handle& h : set.handles) perHandle_.push_back(static_cast<int>(h.vertices.size()));
+  }
+  void setTargets(const py::object& targets) {
+    if (vertices_.empty()) throw InvalidParameter("DeformationSession: call set_handles first");
+    // The same per-handle or stacked forms as deform(); reuse the handle conversion.
+    py::list handles;
+    std::size_t row = 0;
+    for (int k : perHandle_) {
+      py::list ids;
+      for (int i = 0; i < k; ++i) ids.append(vertices_[row + static_cast<std::size_t>(i)]);
+      handles.append(ids);
+      row += static_cast<std::size_t>(k);
+    }
+    const HandleSet set = toHandles(shape_->mesh, handles, targets, py::none(), py::none());
+    Eigen::MatrixXd t(static_cast<Eigen::Index>(vertices_.size()), 3);
+    Eigen::Index r = 0;
+    for (const Handle& h : set.handles) {
+      t.middleRows(r, h.targets.rows()) = h.targets;
+      r += h.targets.rows();
+    }
+    session_->setTargets(t);
+  }
+  void setRegularization(const std::string& mode, const py::object& beta,
+                         const py::object& weights) {
+    std::map<std::string, std::string> values{{"regularization", mode}};
+    if (!beta.is_none()) values["beta"] = formatNumber(beta.cast<double>());
+    const ParamMap params = paramsOf("deform", values);
+    Eigen::VectorXd w;
+    if (!weights.is_none()) w = toVector(weights, "weights", shape_->mesh.numVertices());
+    session_->setRegularization(parseRegularization(params.getString("regularization")),
+                                params.getFloat("beta"), w);
+  }
+  void setBeta(double beta) { session_->setBeta(beta); }
+  void setWeights(const py::object& weights) {
+    session_->setWeights(toVector(weights, "weights", shape_->mesh.numVertices()));
+  }
+  py::tuple solve(const py::object& iterations, const py::object& tolerance) {
+    const auto [cap, tol] = limits(iterations, tolerance);
+    DeformationResult r;
+    {
+      py::gil_scoped_release release;
+      r = session_->solve(cap, tol);
+    }
+    return finish(r);
+  }
+  py::tuple solveFrom(const py::object& initial, const py::object& iterations,
+                      const py::object& tolerance) {
+    const auto [cap, tol] = limits(iterations, tolerance);
+    const Eigen::MatrixXd X0 =
+        toMatrix(initial, "initial", shape_->mesh.numVertices(), 3).leftCols(shape_->disc.dim());
+    DeformationResult r;
+    {
+      py::gil_scoped_release release;
+      r = session_->solveFrom(X0, cap, tol);
+    }
+    return finish(r);
+  }
+  py::tuple resume(const py::object& iterations, const py::object& tolerance) {
+    const auto [cap, tol] = limits(iterations, tolerance);
+    DeformationResult r;
+    {
+      py::gil_scoped_release release;
+      r = session_->resume(cap, tol);
+    }
+    return finish(r);
+  }
+  py::dict stats() const { return fromStats(session_->stats()); }
+
+ private:
+  std::pair<int, double> limits(const py::object& iterations, const py::object& tolerance) const {
+    std::map<std::string, std::string> values;
+    py::dict kwargs;
+    kwargs["iterations"] = iterations;
+    kwargs["tolerance"] = tolerance;
+    const ParamMap params = paramsOf("deform", toParamText(kwargs));
+    const DeformationOptions& o = session_->options();
+    return {iterations.is_none() ? o.maxIterations : params.getInt("iterations"),
+            tolerance.is_none() ? o.relTolerance : params.getFloat("tolerance")};
+  }
+  py::tuple finish(const DeformationResult& r) {
+    Mesh deformed = shape_->mesh;
+    deformed.setPositions(r.positions);  // planar: n x 2, z kept
+    return py::make_tuple(fromMatrix(deformed.positions()), resultInfo(r, session_->stats()));
+  }
+  std::unique_ptr<Shape> shape_;
+  std::unique_ptr<DeformationSession> session_;
+  std::vector<int> vertices_;
+  std::vector<int> perHandle_;
+};
+
+}  // namespace
+
+void bindSessions(py::module_& m) {
+  py::class_<PyDiffusionWeights>(
+      m, "DiffusionWeights",
+      ("DiffusionWeights(V, E" + paramSignature("diffuse_weights") +
+       ")\n\nAn editing session for the diffused weights that keeps its factorization (paper "
+       "Fig. 5): set_handles -> symbolic analysis and numeric factorization at the next solve; "
+       "a new t (set_params) or set_range -> numeric factorization only; set_magnitude -> one "
+       "solve only. `stats` counts them.\n\n" +
+       paramDoc("diffuse_weights"))
+          .c_str())
+      .def(py::init<const py::object&, const py::object&, const py::kwargs&>(), py::arg("V"),
+           py::arg("E"))
+      .def("set_handles", &PyDiffusionWeights::setHandles, py::arg("handles"),
+           py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
+           "set_handles(handles, ranges=None, magnitudes=None)\n\nHandle vertex sets (a list "
+           "of vertex-id arrays) with ranges r_j > 0 and magnitudes m_j >= 0 (default 1).")
+      .def("set_range", &PyDiffusionWeights::setRange, py::arg("handle"), py::arg("r"),
+           "set_range(handle, r)\n\nThe range r_j of handle j (0-based).")
+      .def("set_magnitude", &PyDiffusionWeights::setMagnitude, py::arg("handle"), py::arg("m"),
+           "set_magnitude(handle, m)\n\nThe magnitude m_j of handle j (0-based).")
+      .def("set_params", &PyDiffusionWeights::setParams,
+           ("set_params(**params)\n\nChanges any of the diffuse_weights parameters (the others "
+            "keep their values).\n\n" +
+            paramDoc("diffuse_weights"))
+               .c_str())
+      .def("solve", &PyDiffusionWeights::solve, "solve() -> weights (n,)")
+      .def_property_readonly("params", &PyDiffusionWeights::params,
+                             "The current parameters as the tool's text values.")
+      .def_property_readonly("absolute_time", &PyDiffusionWeights::absoluteTime,
+                             "t in length^2 after applying t_unit.")
+      .def_property_readonly("stats", &PyDiffusionWeights::stats,
+                             "Solver counters: symbolic, numeric, solves and their seconds.");
+
+  const std::string limitsDoc =
+      "iterations, tolerance: None = the session's (from the constructor's parameters).";
+  py::class_<PyDeformationSession>(
+      m, "DeformationSession",
+      ("DeformationSession(V, E, weights=None" + paramSignature("deform") +
+       ")\n\nA deformation editing session (paper Fig. 5) on the rest shape (V, E): "
+       "set_handles -> symbolic analysis and numeric factorization at the next solve; "
+       "set_regularization / set_beta / set_weights -> numeric factorization only; "
+       "set_targets -> new right-hand sides only. `stats` counts them (summed over the "
+       "session's factorizations).\n\n" +
+       paramDoc("deform"))
+          .c_str())
+      .def(py::init<const py::object&, const py::object&, const py::object&, const py::kwargs&>(),
+           py::arg("V"), py::arg("E"), py::arg("weights") = py::none())
+      .def("set_handles", &PyDeformationSession::setHandles, py::arg("handles"),
+           "set_handles(handles)\n\nConstrained vertices, a list of vertex-id arrays (one per "
+           "handle); their targets reset to the rest positions.")
+      .def("set_targets", &PyDeformationSession::setTargets, py::arg("targets"),
+           "set_targets(targets)\n\nOne (k_j, 3) array per handle, or one array stacked handle "
+           "by handle.")
+      .def("set_regularization", &PyDeformationSession::setRegularization,
+           py::arg("regularization"), py::arg("beta") = py::none(), py::arg("weights") = py::none(),
+           "set_regularization(regularization, beta=None, weights=None)\n\n'none', 'uniform' "
+           "(with beta, default the deform filter's) or 'nonuniform' (with weights, one per "
+           "vertex).")
+      .def("set_beta", &PyDeformationSession::setBeta, py::arg("beta"),
+           "set_beta(beta)\n\nUniform regularization with this beta.")
+      .def("set_weights", &PyDeformationSession::setWeights, py::arg("weights"),
+           "set_weights(weights)\n\nNon-uniform regularization with these vertex weights.")
+      .def("solve", &PyDeformationSession::solve, py::arg("iterations") = py::none(),
+           py::arg("tolerance") = py::none(),
+           ("solve(iterations=None, tolerance=None) -> (X, info)\n\nFrom the rest shape. X "
+            "(n, 3); info: energies, iterations, converged, criterion, accelerated_iterations, "
+            "initial_guess, seconds and the session's counters. " +
+            limitsDoc)
+               .c_str())
+      .def("solve_from", &PyDeformationSession::solveFrom, py::arg("initial"),
+           py::arg("iterations") = py::none(), py::arg("tolerance") = py::none(),
+           ("solve_from(initial, iterations=None, tolerance=None) -> (X, info)\n\nLike solve(), "
+            "starting from the positions `initial` (n, 3), e.g. the previous result while "
+            "dragging. " +
+            limitsDoc)
+               .c_str())
+      .def("resume", &PyDeformationSession::resume, py::arg("iterations") = py::none(),
+           py::arg("tolerance") = py::none(),
+           ("resume(iterations=None, tolerance=None) -> (X, info)\n\nContinues the last solve "
+            "where it stopped (as one long run); solves afresh when nothing can be continued. " +
+            limitsDoc)
+               .c_str())
+      .def_property_readonly("stats", &PyDeformationSession::stats,
+                             "Solver counters: symbolic, numeric, solves and their seconds.");
+}
+
+}  // namespace diffreg::python

@@ -1,0 +1,325 @@
+"""Tests of the Python module: the same results as the diffreg tool, the shipped meshes, the
+error messages and the session reuse counters (run by ctest as python_diffreg)."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import diffreg
+
+SOURCE = os.environ.get(
+    "DIFFREG_SOURCE_DIR",
+    os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+TOOL = os.environ.get("DIFFREG_TOOL", os.path.join(os.getcwd(), "diffreg"))
+MESHES = os.path.join(SOURCE, "meshes")
+SCENARIOS = [("bar.obj", "bar-bend.json"), ("cylinder.obj", "cylinder-twist.json"),
+             ("tetbar.mesh", "tetbar-bend.json"), ("disc.obj", "disc-drag.json"),
+             ("lshape.obj", "lshape-bend.json"), ("ushape.obj", "ushape-pull.json")]
+
+
+def mesh(name):
+    return os.path.join(MESHES, name)
+
+
+def scenario(mesh_name, handles_name):
+    V, E = diffreg.read_mesh(mesh(mesh_name))
+    handles, targets, ranges, magnitudes, names = diffreg.read_handles(mesh(handles_name), V, E)
+    return V, E, handles, targets, ranges, magnitudes
+
+
+def square():
+    """Two triangles of the unit square (planar)."""
+    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
+    E = np.array([[0, 1, 2], [0, 2, 3]])
+    return V, E
+
+
+# ---- the same results as the tool --------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cli_bar(tmp_path_factory):
+    if not os.path.exists(TOOL):
+        pytest.skip("the diffreg tool is not built")
+    out = tmp_path_factory.mktemp("cli")
+    om, report = str(out / "bar.om"), str(out / "report.json")
+    subprocess.run([TOOL, "-i", mesh("bar.obj"), "--handles", mesh("bar-bend.json"),
+                    "--filter", "diffuse_weights t=0.01",
+                    "--filter", "deform energy=arap regularization=nonuniform",
+                    "--filter", "measure", "-o", om, "--report", report, "--quiet"],
+                   check=True)
+    with open(report) as f:
+        return om, json.load(f)
+
+
+def test_weights_and_positions_equal_the_tool(cli_bar):
+    om, report = cli_bar
+    V, E, handles, targets, ranges, magnitudes = scenario("bar.obj", "bar-bend.json")
+    w = diffreg.diffuse_weights(V, E, handles, ranges, magnitudes, t=0.01)
+    X, info = diffreg.deform(V, E, handles, targets, weights=w, energy="arap",
+                             regularization="nonuniform")
+    Vc, Ec, vprops, eprops = diffreg.read_mesh(om, properties=True)
+    assert np.array_equal(Ec, E)
+    np.testing.assert_allclose(w, vprops["diffreg:weight"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(X, Vc, rtol=0, atol=1e-9)
+    deform = report["filters"][1]
+    assert info["iterations"] == deform["iterations"]
+    assert info["converged"] == deform["converged"] is True
+    np.testing.assert_allclose(info["energies"], deform["energies"], rtol=1e-10)
+    for key in ("criterion", "symbolic", "numeric", "solves"):
+        assert key in info
+    # The Table-1 metrics: Dist against the same edit without regularization.
+    X0, _ = diffreg.deform(V, E, handles, targets, energy="arap", regularization="none")
+    metrics = diffreg.measure(V, E, X, weights=w, energy="arap", regularization="nonuniform",
+                              reference=X0)
+    for key, value in report["filters"][2]["metrics"].items():
+        assert metrics[key] == pytest.approx(value, rel=1e-8, abs=1e-12), key
+    np.testing.assert_allclose(metrics["distortion"], eprops["diffreg:distortion"], atol=1e-12)
+
+
+def test_run_equals_the_tool(cli_bar):
+    om, report = cli_bar
+    result = diffreg.run(mesh("bar.obj"), ["diffuse_weights t=0.01",
+                                           "deform energy=arap regularization=nonuniform",
+                                           "measure"], handles=mesh("bar-bend.json"))
+    Vc, _ = diffreg.read_mesh(om)
+    np.testing.assert_allclose(result["V"], Vc, rtol=0, atol=1e-9)
+    assert set(result["vertex_properties"]) >= {"diffreg:weight"}
+    assert set(result["element_properties"]) >= {"diffreg:distortion", "diffreg:smoothness"}
+    got = result["report"]["filters"]
+    assert [f["name"] for f in got] == ["diffuse_weights", "deform", "measure"]
+    assert got[1]["iterations"] == report["filters"][1]["iterations"]
+    for key, value in report["filters"][2]["metrics"].items():
+        assert got[2]["metrics"][key] == pytest.approx(value, rel=1e-8, abs=1e-12)
+
+
+def test_run_on_arrays_with_handle_lists():
+    V, E, handles, targets, ranges, magnitudes = scenario("bar.obj", "bar-bend.json")
+    result = diffreg.run((V, E), ["diffuse_weights", "deform regularization=nonuniform"],
+                         handles=handles, targets=targets, ranges=ranges, magnitudes=magnitudes)
+    w = diffreg.diffuse_weights(V, E, handles, ranges, magnitudes)
+    X, _ = diffreg.deform(V, E, handles, targets, weights=w, regularization="nonuniform")
+    np.testing.assert_array_equal(result["vertex_properties"]["diffreg:weight"], w)
+    np.testing.assert_allclose(result["V"], X, atol=1e-12)
+
+
+def test_run_with_a_meshlab_script(tmp_path):
+    script = tmp_path / "weights.mlx"
+    script.write_text('<!DOCTYPE FilterScript>\n<FilterScript>\n'
+                      ' <filter name="diffuse_weights"/>\n</FilterScript>\n')
+    both = diffreg.run(mesh("bar.obj"), ["deform regularization=nonuniform"],
+                       handles=mesh("bar-bend.json"), script=str(script))
+    plain = diffreg.run(mesh("bar.obj"), ["diffuse_weights", "deform regularization=nonuniform"],
+                        handles=mesh("bar-bend.json"))
+    np.testing.assert_allclose(both["V"], plain["V"], rtol=0, atol=1e-12)
+    with pytest.raises(OSError):
+        diffreg.run(mesh("bar.obj"), script=str(tmp_path / "missing.mlx"))
+
+
+# ---- the C++ API on the shipped meshes ----------------------------------------------------------
+
+@pytest.mark.parametrize("mesh_name,handles_name", SCENARIOS)
+def test_shipped_scenarios(mesh_name, handles_name):
+    V, E, handles, targets, ranges, magnitudes = scenario(mesh_name, handles_name)
+    assert V.dtype == np.float64 and V.shape[1] == 3
+    assert E.shape[1] == (4 if mesh_name.endswith(".mesh") else 3)
+    w = diffreg.diffuse_weights(V, E, handles, ranges, magnitudes)
+    assert w.shape == (len(V),)
+    assert w.min() >= 0 and w.max() <= magnitudes.max() + 1e-12
+    for h, m in zip(handles, magnitudes):
+        np.testing.assert_allclose(w[h], m)
+    X, info = diffreg.deform(V, E, handles, targets, weights=w, regularization="nonuniform")
+    assert X.shape == V.shape and np.isfinite(X).all()
+    assert info["converged"]
+    assert all(b <= a * (1 + 1e-12) for a, b in zip(info["energies"], info["energies"][1:]))
+    for h, t in zip(handles, targets):
+        np.testing.assert_allclose(X[h], t, atol=1e-9)
+    if np.ptp(V[:, 2]) == 0:  # planar: z kept
+        np.testing.assert_array_equal(X[:, 2], V[:, 2])
+    metrics = diffreg.measure(V, E, X, weights=w, regularization="nonuniform")
+    assert metrics["inverted"] == 0 and metrics["dist"] is None
+    assert metrics["D_max"] >= metrics["D_ave"] >= 0
+    rbf = diffreg.rbf_weights(V, E, handles, ranges, magnitudes, distance="euclidean")
+    assert rbf.shape == (len(V),) and rbf.min() >= 0
+
+
+def test_defaults_come_from_the_filter_tables():
+    tables = {f["name"]: {p["name"]: p for p in f["params"]} for f in diffreg.filters()}
+    deform = tables["deform"]
+    doc = diffreg.deform.__doc__
+    assert doc.startswith("deform(V, E, handles, targets, weights=None")
+    for name, p in deform.items():
+        assert name in doc and p["help"][:40] in doc
+    assert "iterations=" + deform["iterations"]["default"] in doc
+    assert "t=" + tables["diffuse_weights"]["t"]["default"] in diffreg.diffuse_weights.__doc__
+    V, E, handles, targets, _, _ = scenario("bar.obj", "bar-bend.json")
+    X, info = diffreg.deform(V, E, handles, targets)
+    assert info["params"] == {name: p["default"] for name, p in deform.items()}
+
+
+def test_array_forms():
+    V, E, handles, targets, _, _ = scenario("bar.obj", "bar-bend.json")
+    X, _ = diffreg.deform(V, E, handles, targets)
+    stacked = np.vstack(targets)
+    X2, _ = diffreg.deform(np.asfortranarray(V), E.astype(np.int32), [list(h) for h in handles],
+                           stacked)
+    np.testing.assert_array_equal(X, X2)
+    X3, _ = diffreg.deform(V[:, :2].copy(), E, handles, [t[:, :2] for t in targets])
+    np.testing.assert_allclose(X3, X, atol=1e-12)
+
+
+def test_write_and_read_properties(tmp_path):
+    V, E = square()
+    w = np.array([0.0, 0.25, 0.5, 1.0])
+    d = np.array([1.0, 2.0])
+    path = str(tmp_path / "square.om")
+    diffreg.write_mesh(path, V, E, vertex_properties={"diffreg:weight": w},
+                       element_properties={"diffreg:distortion": d})
+    V2, E2, vp, ep = diffreg.read_mesh(path, properties=True)
+    np.testing.assert_array_equal(V2, V)
+    np.testing.assert_array_equal(E2, E)
+    np.testing.assert_array_equal(vp["diffreg:weight"], w)
+    np.testing.assert_array_equal(ep["diffreg:distortion"], d)
+    ply = str(tmp_path / "square.ply")
+    diffreg.write_mesh(ply, V, E, vertex_properties={"diffreg:weight": w})
+    assert "property float quality" in open(ply).read()
+
+
+def test_threads_solve_at_once():
+    """The GIL is released during solves: threads run side by side and agree."""
+    from concurrent.futures import ThreadPoolExecutor
+    V, E, handles, targets, _, _ = scenario("cylinder.obj", "cylinder-twist.json")
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        results = list(pool.map(lambda _: diffreg.deform(V, E, handles, targets)[0], range(3)))
+    for X in results[1:]:
+        np.testing.assert_allclose(X, results[0], rtol=0, atol=1e-10)
+
+
+# ---- errors ---------------------------------------------------------------------------------------
+
+def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
+    V, E = square()
+    with pytest.raises(OSError, match="nothing.obj"):
+        diffreg.read_mesh(str(tmp_path / "nothing.obj"))
+    with pytest.raises(ValueError, match=r"V: expected positions of shape \(n, 3\)"):
+        diffreg.diffuse_weights(np.zeros((4, 4)), E, [[0]])
+    with pytest.raises(ValueError, match="V: expected real numbers"):
+        diffreg.diffuse_weights(np.array([["a"] * 3] * 4), E, [[0]])
+    with pytest.raises(ValueError, match="E: expected integer indices"):
+        diffreg.diffuse_weights(V, E.astype(float), [[0]])
+    with pytest.raises(ValueError, match="refers to vertex 7"):
+        diffreg.diffuse_weights(V, np.array([[0, 1, 7]]), [[0]])
+    with pytest.raises(ValueError, match="non-finite"):
+        diffreg.diffuse_weights(np.where(V == 1, np.nan, V), E, [[0]])
+    with pytest.raises(ValueError, match="one handle write"):
+        diffreg.diffuse_weights(V, E, [0, 1])
+    with pytest.raises(ValueError, match="out of range"):
+        diffreg.diffuse_weights(V, E, [[9]])
+    with pytest.raises(ValueError, match="'tt'.*t"):
+        diffreg.diffuse_weights(V, E, [[0]], tt=1)
+    with pytest.raises(ValueError, match="order"):
+        diffreg.diffuse_weights(V, E, [[0]], order="third")
+    with pytest.raises(ValueError, match="beta"):
+        diffreg.deform(V, E, [[0], [2]], None, regularization="uniform", beta=2)
+    with pytest.raises(ValueError, match="nonuniform needs weights"):
+        diffreg.deform(V, E, [[0], [2]], None, regularization="nonuniform")
+    with pytest.raises(ValueError, match=r"targets: expected shape \(2, 3\)"):
+        diffreg.deform(V, E, [[0], [2]], np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"weights: expected shape \(4,\)"):
+        diffreg.deform(V, E, [[0], [2]], None, regularization="nonuniform", weights=[1, 2])
+    with pytest.raises(ValueError, match="degenerate"):
+        diffreg.deform(np.zeros((4, 3)), E, [[0], [2]], None)
+    with pytest.raises(ValueError, match="unknown filter|no_such_filter"):
+        diffreg.run((V, E), ["no_such_filter"])
+    with pytest.raises(ValueError, match="handle"):
+        diffreg.run((V, E), ["deform"])
+    with pytest.raises(ValueError):
+        diffreg.deform(V, E, [[0], [0]], None)
+
+
+# ---- sessions (paper Fig. 5) ----------------------------------------------------------------------
+
+def test_diffusion_session_reuses_its_factorization():
+    V, E, handles, _, ranges, magnitudes = scenario("bar.obj", "bar-bend.json")
+    session = diffreg.DiffusionWeights(V, E, t=0.01)
+    session.set_handles(handles, ranges, magnitudes)
+    w = session.solve()
+    np.testing.assert_allclose(w, diffreg.diffuse_weights(V, E, handles, ranges, magnitudes),
+                               atol=1e-12)
+    s0 = session.stats
+    assert (s0["symbolic"], s0["numeric"], s0["solves"]) == (1, 1, 1)
+    session.set_magnitude(2, 1.0)  # right-hand side only
+    session.solve()
+    s1 = session.stats
+    assert (s1["symbolic"], s1["numeric"], s1["solves"]) == (1, 1, 2)
+    session.set_params(t=0.02)  # numeric factorization only
+    w2 = session.solve()
+    s2 = session.stats
+    assert (s2["symbolic"], s2["numeric"]) == (1, 2)
+    assert session.params["t"] == "0.02" and session.params["order"] == "second"
+    session.set_range(0, 2.0)
+    session.solve()
+    assert (session.stats["symbolic"], session.stats["numeric"]) == (1, 3)
+    assert w2.mean() > w.mean()
+    with pytest.raises(ValueError):
+        session.set_magnitude(5, 1.0)
+
+
+def test_deformation_session_reuses_its_factorization():
+    V, E, handles, targets, ranges, magnitudes = scenario("bar.obj", "bar-bend.json")
+    w = diffreg.diffuse_weights(V, E, handles, ranges, magnitudes)
+    session = diffreg.DeformationSession(V, E, weights=w, regularization="nonuniform")
+    session.set_handles(handles)
+    session.set_targets(targets)
+    X, info = session.solve()
+    X1, _ = diffreg.deform(V, E, handles, targets, weights=w, regularization="nonuniform")
+    np.testing.assert_allclose(X, X1, atol=1e-12)
+    assert info["converged"] and info["iterations"] > 0
+    s0 = session.stats
+    assert s0["symbolic"] >= 1 and s0["numeric"] >= 1
+    moved = [t + np.array([0, 0.1, 0]) for t in targets]
+    session.set_targets(moved)  # solves only
+    session.solve()
+    s1 = session.stats
+    assert (s1["symbolic"], s1["numeric"]) == (s0["symbolic"], s0["numeric"])
+    assert s1["solves"] > s0["solves"]
+    session.set_beta(0.3)  # numeric factorization only
+    session.solve(iterations=5)
+    s2 = session.stats
+    assert s2["symbolic"] == s0["symbolic"] and s2["numeric"] > s1["numeric"]
+    Xr, info = session.resume()
+    assert info["initial_guess"] == "continued" and info["converged"]
+    session.set_regularization("none")
+    Xf, info = session.solve_from(Xr, iterations=100)
+    assert info["initial_guess"] == "given"
+    assert session.stats["symbolic"] == s0["symbolic"]
+
+
+# ---- the example ----------------------------------------------------------------------------------
+
+def test_example_script(tmp_path):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "three-ways.png"
+    script = os.path.join(SOURCE, "examples", "python", "deform_three_ways.py")
+    subprocess.run([sys.executable, script, "-o", str(out)], check=True,
+                   env=dict(os.environ, MPLBACKEND="Agg"))
+    assert out.stat().st_size > 10000
+
+
+# ---- installation ---------------------------------------------------------------------------------
+
+def test_installed_module_imports(tmp_path):
+    cmake, build = os.environ.get("DIFFREG_CMAKE"), os.environ.get("DIFFREG_BUILD_DIR")
+    relative = os.environ.get("DIFFREG_PYTHON_INSTALL_DIR")
+    if not (cmake and build and relative):
+        pytest.skip("run by ctest, which names the build")
+    prefix = tmp_path / "prefix"
+    subprocess.run([cmake, "--install", build, "--prefix", str(prefix)], check=True,
+                   stdout=subprocess.DEVNULL)
+    site = relative if os.path.isabs(relative) else str(prefix / relative)
+    env = dict(os.environ, PYTHONPATH=site)
+    out = subprocess.run([sys.executable, "-c", "import diffreg; print(diffreg.__file__)"],
+                         check=True, env=env, cwd=str(tmp_path), capture_output=True, text=True)
+    assert out.stdout.strip().startswith(site)
