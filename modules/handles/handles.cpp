@@ -1,6 +1,7 @@
 #include "handles/handles.h"
 
 #include "core/error.h"
+#include "core/file.h"
 #include "core/xml.h"
 
 #include <Eigen/Geometry>
@@ -507,35 +508,12 @@ std::vector<PickedPoint> parsePickedPoints(const std::string& xmlText, const std
 }
 
 std::vector<PickedPoint> readPickedPoints(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw IoError("cannot open picked points file '" + path + "': no such file");
-  }
-  if (std::filesystem::is_directory(path, ec)) {
-    throw IoError("cannot read picked points file '" + path + "': is a directory");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError("cannot open picked points file '" + path + "'");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw IoError("cannot read picked points file '" + path + "'");
-  return parsePickedPoints(text.str(), path);
+  return parsePickedPoints(readFileLimited(path, "picked points file", limits::textBytes), path);
 }
 
 HandleSet readHandles(const std::string& path, const Mesh& mesh) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw IoError("cannot open handle file '" + path + "': no such file");
-  }
-  if (std::filesystem::is_directory(path, ec)) {
-    throw IoError("cannot read handle file '" + path + "': is a directory");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError("cannot open handle file '" + path + "'");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw IoError("cannot read handle file '" + path + "'");
-  return parseHandles(text.str(), mesh, path, std::filesystem::path(path).parent_path().string());
+  const std::string text = readFileLimited(path, "handle file", limits::textBytes);
+  return parseHandles(text, mesh, path, std::filesystem::path(path).parent_path().string());
 }
 
 HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source,
