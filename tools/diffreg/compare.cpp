@@ -163,7 +163,8 @@ int runCompare(int argc, char** argv) {
   for (const char* key : {"output", "report", "markdown"})
     if (vm.count(key)) {
       outputs.push_back(vm[key].as<std::string>());
-      checkWritableDir(outputs.back());
+      checkOutputTarget(outputs.back(), key == std::string("output") ? kPictureExtensions
+                                                                      : std::vector<std::string>{});
     }
 
   const Document doc = Document::load(vm["input"].as<std::string>(), vm["handles"].as<std::string>());

@@ -123,13 +123,15 @@ int runPipeline(const po::variables_map& vm) {
       pipeline.add(name, values);
     }
   }
-  for (size_t i = 0; i < outputs.size(); ++i) {
-    checkWritableDir(outputs[i]);
-    bool twice = !reportPath.empty() && fs::absolute(outputs[i]) == fs::absolute(reportPath);
-    for (size_t j = 0; j < i; ++j) twice = twice || fs::absolute(outputs[i]) == fs::absolute(outputs[j]);
-    if (twice) throw UsageError("output '" + outputs[i] + "' given twice");
+  // Two spellings of one file (a.ply, ./a.ply, a link to it) are one output.
+  std::vector<std::string> targets = outputs;
+  if (!reportPath.empty()) targets.push_back(reportPath);
+  for (size_t i = 0; i < targets.size(); ++i) {
+    checkWritableDir(targets[i]);
+    for (size_t j = 0; j < i; ++j)
+      if (canonicalTarget(targets[i]) == canonicalTarget(targets[j]))
+        throw UsageError("output '" + targets[i] + "' given twice (also as '" + targets[j] + "')");
   }
-  if (!reportPath.empty()) checkWritableDir(reportPath);
 
   Document doc = Document::load(input, handles);
   for (const auto& output : outputs) checkWritable(output, doc.mesh.kind());

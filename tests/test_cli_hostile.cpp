@@ -1,0 +1,82 @@
+// The tool on hostile inputs and outputs: endless and special files, one output spelled two
+// ways, targets that cannot be written, wrong picture extensions. Every failing run ends in
+// one "diffreg: error:" line and leaves every output as it was.
+#include "cli_fixture.h"
+
+#include <catch2/catch.hpp>
+
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+using namespace diffreg::testing;
+
+namespace {
+
+/// True when `r` failed with exactly one error line that contains every one of `parts`.
+bool oneErrorLine(const ToolRun& r, std::initializer_list<std::string> parts) {
+  if (r.code == 0 || lineCount(r.err) != 1 || r.err.rfind("diffreg: error: ", 0) != 0)
+    return false;
+  for (const auto& p : parts)
+    if (r.err.find(p) == std::string::npos) return false;
+  return true;
+}
+
+/// A scratch directory with the shipped bar, its handles and an existing "old" output.
+struct Bar : Scratch {
+  explicit Bar(const std::string& tag) : Scratch(tag) {
+    fs::copy_file(shipped("bar.obj"), dir / "bar.obj");
+    fs::copy_file(shipped("bar-bend.json"), dir / "bend.json");
+    std::ofstream(dir / "a.ply") << "old a";
+    std::ofstream(dir / "b.ply") << "old b";
+  }
+  bool untouched() const { return slurp(dir / "a.ply") == "old a" && slurp(dir / "b.ply") == "old b"; }
+};
+
+}  // namespace
+
+TEST_CASE("endless and special input files are refused at once", "[cli][hostile]") {
+  Bar w("hostile-in");
+  SECTION("--handles /dev/zero") {
+    const ToolRun r = w.run("-i bar.obj --handles /dev/zero -o a.ply");
+    CHECK(oneErrorLine(r, {"/dev/zero", "not a regular file"}));
+    CHECK(w.untouched());
+  }
+  SECTION("a FIFO as the mesh (no writer: reading it would wait forever)") {
+    REQUIRE(::mkfifo((w.dir / "pipe.obj").c_str(), 0600) == 0);
+    const ToolRun r = w.run("-i pipe.obj -o a.ply");
+    CHECK(oneErrorLine(r, {"pipe.obj", "not a regular file"}));
+    CHECK(w.untouched());
+  }
+  SECTION("picked points and scripts from /dev/zero") {
+    std::ofstream(w.dir / "pp.json") << R"({"handles": [{"picked": "/dev/zero"}]})";
+    CHECK(oneErrorLine(w.run("-i bar.obj --handles pp.json -o a.ply"), {"/dev/zero", "pp.json"}));
+    CHECK(oneErrorLine(w.run("-i bar.obj -s /dev/zero -o a.ply"), {"/dev/zero"}));
+    CHECK(w.untouched());
+  }
+}
+
+TEST_CASE("outputs: one file under two spellings, bad targets, nothing changed", "[cli][hostile]") {
+  Bar w("hostile-out");
+  SECTION("-o a.ply -o ./a.ply") {
+    CHECK(oneErrorLine(w.run("-i bar.obj -o a.ply -o ./a.ply"), {"a.ply", "twice"}));
+  }
+  SECTION("-o b.ply --report ./b.ply, and through a symbolic link") {
+    CHECK(oneErrorLine(w.run("-i bar.obj -o b.ply --report ./b.ply"), {"b.ply", "twice"}));
+    fs::create_directory_symlink(w.dir, w.dir / "here");
+    CHECK(oneErrorLine(w.run("-i bar.obj -o b.ply -o here/b.ply"), {"b.ply", "twice"}));
+  }
+  SECTION("a later output that is a directory") {
+    fs::create_directory(w.dir / "d.ply");
+    CHECK(oneErrorLine(w.run("-i bar.obj -o a.ply -o d.ply"), {"d.ply", "directory"}));
+  }
+  SECTION("compare -o with a mesh extension writes no PNG into it") {
+    const ToolRun r = w.run("compare -i bar.obj --handles bend.json -o m.ply");
+    CHECK(oneErrorLine(r, {"m.ply", "png"}));
+    CHECK_FALSE(w.has("m.ply"));
+  }
+  CHECK(w.untouched());
+  CHECK(w.files() == 4 + (w.has("d.ply") ? 1 : 0) + (w.has("here") ? 1 : 0));
+}
