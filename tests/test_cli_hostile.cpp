@@ -6,6 +6,10 @@
 #include <catch2/catch.hpp>
 
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
 
 #include <filesystem>
 #include <fstream>
@@ -79,4 +83,31 @@ TEST_CASE("outputs: one file under two spellings, bad targets, nothing changed",
   }
   CHECK(w.untouched());
   CHECK(w.files() == 4 + (w.has("d.ply") ? 1 : 0) + (w.has("here") ? 1 : 0));
+}
+
+TEST_CASE("diffreg serve stops on SIGTERM", "[cli][hostile][serve]") {
+  Bar w("hostile-serve");
+  int out[2];
+  REQUIRE(::pipe(out) == 0);
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    ::dup2(out[1], 1);
+    ::close(out[0]);
+    const std::string mesh = (w.dir / "bar.obj").string();
+    ::execl(DIFFREG_TOOL, DIFFREG_TOOL, "serve", "-i", mesh.c_str(), "--port", "0", "--quiet",
+            static_cast<char*>(nullptr));
+    std::_Exit(127);
+  }
+  ::close(out[1]);
+  std::string line;
+  char c = 0;
+  while (::read(out[0], &c, 1) == 1 && c != '\n') line += c;  // the URL: it is serving
+  CHECK(line.find("http://127.0.0.1:") != std::string::npos);
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  ::close(out[0]);
+  CHECK(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
 }

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/file.h"
+#include "core/text.h"
 #include "core/xml.h"
 
 #include <Eigen/Geometry>
@@ -45,9 +46,10 @@ std::string shortNumber(double v) {
 /// Parses one handle file against a mesh; every error names the source and the handle.
 class Parser {
  public:
-  Parser(const Mesh& mesh, std::string source, std::string baseDir)
+  Parser(const Mesh& mesh, std::string source, std::string baseDir, bool revealFiles)
       : source_(std::move(source)),
         baseDir_(std::move(baseDir)),
+        revealFiles_(revealFiles),
         rest_(mesh.positions()),
         used_(mesh.referenced()),
         planar_(mesh.kind() == MeshKind::Planar) {
@@ -334,10 +336,11 @@ class Parser {
     if (it != picked_.end()) return it->second;
     try {
       return picked_.emplace(path, readPickedPoints(path)).first->second;
-    } catch (const IoError& e) {
-      throw IoError(source_ + ": " + label_ + ": " + e.what());
-    } catch (const InvalidParameter& e) {
-      throw InvalidParameter(source_ + ": " + label_ + ": " + e.what());
+    } catch (const Error& e) {
+      const std::string where = source_ + ": " + label_ + ": ";
+      if (!revealFiles_) throw IoError(where + "a picked points file cannot be read");
+      if (dynamic_cast<const IoError*>(&e)) throw IoError(where + e.what());
+      throw InvalidParameter(where + e.what());
     }
   }
 
@@ -459,6 +462,7 @@ class Parser {
 
   std::string source_;
   std::string baseDir_;
+  bool revealFiles_ = true;  ///< messages may say why a picked points file cannot be used
   mutable std::map<std::string, std::vector<PickedPoint>> picked_;  ///< .pp files read so far
   Eigen::MatrixXd rest_;
   std::vector<bool> used_;
@@ -507,7 +511,7 @@ std::vector<PickedPoint> parsePickedPoints(const std::string& xmlText, const std
     if (e.name != "point") continue;  // <DocumentData> and the like
     PickedPoint p;
     p.line = e.line;
-    if (const std::string* name = e.attribute("name")) p.name = *name;
+    if (const std::string* name = e.attribute("name")) p.name = escapeNonUtf8(*name);
     const std::string what = "point" + (p.name.empty() ? std::string() : " '" + p.name + "'");
     const char* axes[] = {"x", "y", "z"};
     for (int c = 0; c < 3; ++c) {
@@ -545,8 +549,8 @@ HandleSet readHandles(const std::string& path, const Mesh& mesh) {
 }
 
 HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source,
-                       const std::string& baseDir) {
-  return Parser(mesh, source, baseDir).parse(jsonText);
+                       const std::string& baseDir, bool revealFiles) {
+  return Parser(mesh, source, baseDir, revealFiles).parse(jsonText);
 }
 
 std::string handlesToJson(const HandleSet& handles) {

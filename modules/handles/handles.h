@@ -61,9 +61,11 @@ std::vector<PickedPoint> readPickedPoints(const std::string& path);
 HandleSet readHandles(const std::string& path, const Mesh& mesh);
 
 /// Same, from JSON text; `source` names it in messages and relative .pp paths are resolved
-/// against `baseDir` ("" = the working directory).
+/// against `baseDir` ("" = the working directory). With `revealFiles` false (text from a
+/// network client), any problem with a .pp file it names is one IoError that says neither
+/// whether the file exists nor what it holds.
 HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source,
-                       const std::string& baseDir = "");
+                       const std::string& baseDir = "", bool revealFiles = true);
 
 /// Writes the resolved handles as JSON ("vertices" + "targets") that readHandles accepts.
 std::string handlesToJson(const HandleSet& handles);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <boost/program_options.hpp>
+#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <stdexcept>
@@ -11,6 +12,13 @@
 #include <vector>
 
 namespace diffreg {
+
+/// A report as written to --report: indented JSON and a final newline. Strings that are not
+/// UTF-8 (parameters given on the command line) have their bad bytes replaced by U+FFFD
+/// instead of failing the run at the end.
+inline std::string reportText(const nlohmann::json& report) {
+  return report.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
 
 /// A mistake in the command line itself (exit code 2).
 struct UsageError : std::runtime_error {

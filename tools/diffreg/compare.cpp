@@ -236,7 +236,7 @@ int runCompare(int argc, char** argv) {
       report["variants"].push_back({{"name", v.name},
                                     {"metrics", v.report["filters"][v.weights.size() + 1]["metrics"]},
                                     {"filters", v.report["filters"]}});
-    staged.stageText(vm["report"].as<std::string>(), report.dump(2) + "\n");
+    staged.stageText(vm["report"].as<std::string>(), reportText(report));
   }
   if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
   staged.commit();

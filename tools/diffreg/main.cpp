@@ -146,7 +146,7 @@ int runPipeline(const po::variables_map& vm) {
   const nlohmann::json report = pipeline.run(doc);
 
   for (const auto& output : outputs) writeMesh(staged.stage(output), doc.mesh);
-  if (!reportPath.empty()) staged.stageText(reportPath, report.dump(2) + "\n");
+  if (!reportPath.empty()) staged.stageText(reportPath, reportText(report));
   staged.commit();
   info("wrote " + join(outputs, ", ") + (reportPath.empty() ? "" : " and " + reportPath));
   return 0;

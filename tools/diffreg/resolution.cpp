@@ -318,7 +318,7 @@ int runResolution(int argc, char** argv) {
                           {"probe", c.probe}});
       report["units"][unit] = rows;
     }
-    staged.stageText(vm["report"].as<std::string>(), report.dump(2) + "\n");
+    staged.stageText(vm["report"].as<std::string>(), reportText(report));
   }
   if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
   staged.commit();

@@ -10,11 +10,15 @@
 
 #include <boost/program_options.hpp>
 
+#include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
+#include <future>
+#include <thread>
 
 namespace po = boost::program_options;
 
@@ -73,7 +77,20 @@ int runServe(int argc, char** argv) {
   std::cout << "diffreg serve: http://127.0.0.1:" << bound << "/" << std::endl;
   int received = 0;
   sigwait(&signals, &received);
-  server.stop();
+  // Stop within a second even when a request is still running (a long solve): after that
+  // the process ends without waiting for it.
+  std::promise<void> stopped;
+  std::future<void> done = stopped.get_future();
+  std::thread stopper([&] {
+    server.stop();
+    stopped.set_value();
+  });
+  if (done.wait_for(std::chrono::milliseconds(900)) != std::future_status::ready) {
+    info("serve: stopped (abandoning the requests still running)");
+    std::cout.flush();
+    std::_Exit(0);
+  }
+  stopper.join();
   info("serve: stopped");
   return 0;
 }
