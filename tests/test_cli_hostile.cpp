@@ -4,6 +4,7 @@
 #include "cli_fixture.h"
 
 #include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
 
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -110,4 +111,15 @@ TEST_CASE("diffreg serve stops on SIGTERM", "[cli][hostile][serve]") {
   ::close(out[0]);
   CHECK(WIFEXITED(status));
   CHECK(WEXITSTATUS(status) == 0);
+}
+
+TEST_CASE("an input file name that is not UTF-8 reaches the report escaped", "[cli][hostile]") {
+  Bar w("hostile-name");
+  const std::string name = "b\xff\xfe.obj";
+  fs::copy_file(w.dir / "bar.obj", w.dir / name);
+  const ToolRun r = w.run("-i '" + name + "' -o out.ply --report r.json --quiet");
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const nlohmann::json report = nlohmann::json::parse(slurp(w.dir / "r.json"));
+  CHECK(report.at("mesh").at("path") == "b\\xff\\xfe.obj");
 }

@@ -60,6 +60,12 @@ const char* kUsage =
     "is only converted. Nothing is written when anything fails.\n"
     "-s runs the filters of a MeshLab FilterScript (.mlx) first, then any --filter ones.\n";
 
+/// The input of the run, for the out-of-memory message.
+std::string& inputName() {
+  static std::string name;
+  return name;
+}
+
 /// Wraps `text` to `width` columns, each line starting with `indent`.
 std::string wrap(const std::string& text, const std::string& indent, size_t width = 78) {
   std::istringstream words(text);
@@ -107,6 +113,7 @@ int runPipeline(const po::variables_map& vm) {
   if (!vm.count("input")) throw UsageError("missing -i IN (see diffreg --help)");
   if (!vm.count("output")) throw UsageError("missing -o OUT (see diffreg --help)");
   const std::string input = vm["input"].as<std::string>();
+  inputName() = input;
   const auto outputs = vm["output"].as<std::vector<std::string>>();
   const std::string handles = vm.count("handles") ? vm["handles"].as<std::string>() : "";
   const std::string reportPath = vm.count("report") ? vm["report"].as<std::string>() : "";
@@ -211,6 +218,11 @@ int run(int argc, char** argv) {
   return runPipeline(vm);
 }
 
+std::string workingOn() {
+  return inputName().empty() ? std::string("before reading any input")
+                             : "while working on '" + inputName() + "'";
+}
+
 /// Prints the one error line, with any line breaks in `message` folded into spaces.
 void printError(const std::string& message) {
   std::string line = message;
@@ -231,6 +243,9 @@ int main(int argc, char** argv) {
   } catch (const po::error& e) {
     diffreg::printError(e.what());
     return 2;
+  } catch (const std::bad_alloc&) {
+    diffreg::printError("out of memory (" + diffreg::workingOn() + ")");
+    return 1;
   } catch (const std::exception& e) {
     diffreg::printError(e.what());
     return 1;
