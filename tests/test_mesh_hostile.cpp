@@ -279,3 +279,16 @@ TEST_CASE("random valid meshes written and read back are bit-exact", "[mesh][hos
     CHECK(bitExact(readMesh(tmp / "r.mesh").positions(), solid.positions()));
   }
 }
+
+TEST_CASE("fuzzing findings stay fixed", "[mesh][hostile]") {
+  TempDir tmp;
+  SECTION("an ASCII PLY list length of 1e24 (was undefined behaviour)") {
+    const std::string p = tmp.file("list.ply",
+                                   "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\n"
+                                   "property double y\nproperty double z\nelement face 1\n"
+                                   "property list uchar int vertex_indices\nend_header\n"
+                                   "0 0 0\n1 0 0\n0 1 0\n0999999999999999999999993 0 1 2\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":13") && Catch::Contains("bad list length"));
+  }
+}

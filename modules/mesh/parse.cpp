@@ -551,9 +551,13 @@ RawMesh parsePly(std::string_view text, const std::string& source) {
         const PlyProperty& prop = e.props[i];
         if (prop.countSize) {
           const double n = next(prop.countSize, false, false);
-          if (!(n >= 0) || static_cast<std::uint64_t>(n) >
-                               (ascii ? t.size() : bin.remaining() / prop.size + 1)) {
-            throw InvalidMesh(where + ": " + what + " has a bad list length " + std::to_string(n));
+          // At most one item per token (ASCII) or per item size (binary) left: compared as
+          // doubles, since an ASCII count may be any number.
+          const double most = ascii ? static_cast<double>(t.size())
+                                    : static_cast<double>(bin.remaining() / prop.size + 1);
+          if (!(n >= 0 && n <= most && n == std::floor(n))) {
+            throw InvalidMesh(where + ": " + what + " has a bad list length " +
+                              quote(ascii ? t[token - 1] : std::string_view("(binary)")));
           }
           list.clear();
           for (long long j = 0; j < static_cast<long long>(n); ++j)
