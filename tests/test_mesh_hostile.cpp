@@ -292,3 +292,12 @@ TEST_CASE("fuzzing findings stay fixed", "[mesh][hostile]") {
                Catch::Contains(p + ":13") && Catch::Contains("bad list length"));
   }
 }
+
+TEST_CASE("a file of repeated faces is refused before it grows", "[mesh][hostile]") {
+  TempDir tmp;
+  std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  for (int i = 0; i < 5000; ++i) obj += "f 1 2 3\n";
+  const std::string p = tmp.file("dup.obj", obj);
+  CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+             Catch::Contains(p + ":1005") && Catch::Contains("non-manifold"));
+}

@@ -823,6 +823,9 @@ class SplittingImporter : public OpenMesh::IO::ImporterT<TriMesh> {
   TriMesh& mesh_;
 };
 
+/// Faces split off as non-manifold that are accepted whatever the size of the mesh.
+constexpr size_t kMaxSplitFaces = 1000;
+
 /// Throws InvalidMesh for a face with fewer than 3 vertices, an index outside
 /// [0, numVertices) or a repeated vertex.
 void checkFace(const std::string& source, const RawFace& f, size_t k, long long numVertices,
@@ -889,6 +892,16 @@ TriMesh buildTriMesh(const RawMesh& raw, const std::string& source) {
     for (const auto& t : tris) {
       for (int j = 0; j < 3; ++j) corners[j] = OpenMesh::VertexHandle(static_cast<int>(t[j]));
       importer.add_face(corners);
+    }
+    // Each split face copies its vertices: a file of repeated faces would grow ~100 bytes of
+    // memory per byte read. A few non-manifold faces are common, a mesh made of them is not.
+    const size_t split = static_cast<size_t>(importer.splitFaces);
+    if (split > std::max<size_t>(kMaxSplitFaces, raw.faces.size() / 10)) {
+      const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "");
+      throw InvalidMesh(where + ": face " + std::to_string(k + raw.base) + ": " +
+                        std::to_string(split) +
+                        " faces so far would make the mesh non-manifold (repeated faces, or "
+                        "more than two faces on an edge); at most 1000 or 10% are accepted");
     }
   }
   if (polygons > 0) {

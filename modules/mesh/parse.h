@@ -48,8 +48,9 @@ TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::s
 
 /// The triangle mesh of `raw`: faces checked (at least 3 distinct vertices in range), polygons
 /// triangulated in their plane (non-planar or self-intersecting ones refused), faces that would
-/// make the mesh non-manifold split off with their own vertex copies (after the file's). Warns
-/// about polygons and split faces.
+/// make the mesh non-manifold split off with their own vertex copies (after the file's; more
+/// than 1000 of them and more than 10% of the faces is an error). Warns about polygons and
+/// split faces.
 /// \throw InvalidMesh naming `source`, the line and the face.
 TriMesh buildTriMesh(const RawMesh& raw, const std::string& source);
 
