@@ -22,8 +22,7 @@ namespace {
 
 /// True when `r` failed with exactly one error line that contains every one of `parts`.
 bool oneErrorLine(const ToolRun& r, std::initializer_list<std::string> parts) {
-  if (r.code == 0 || lineCount(r.err) != 1 || r.err.rfind("diffreg: error: ", 0) != 0)
-    return false;
+  if (r.code == 0 || lineCount(r.err) != 1 || r.err.rfind("diffreg: error: ", 0) != 0) return false;
   for (const auto& p : parts)
     if (r.err.find(p) == std::string::npos) return false;
   return true;
@@ -37,7 +36,9 @@ struct Bar : Scratch {
     std::ofstream(dir / "a.ply") << "old a";
     std::ofstream(dir / "b.ply") << "old b";
   }
-  bool untouched() const { return slurp(dir / "a.ply") == "old a" && slurp(dir / "b.ply") == "old b"; }
+  bool untouched() const {
+    return slurp(dir / "a.ply") == "old a" && slurp(dir / "b.ply") == "old b";
+  }
 };
 
 }  // namespace

@@ -270,7 +270,8 @@ TEST_CASE("hostile handle values are refused up front, naming file, handle and f
     return std::string("no error");
   };
   SECTION("magnitude above 1, with a short number") {
-    const std::string m = message(R"({"handles": [{"name": "tip", "vertices": [1], "magnitude": 1e100}]})");
+    const std::string m =
+        message(R"({"handles": [{"name": "tip", "vertices": [1], "magnitude": 1e100}]})");
     CHECK_THAT(m, Contains("h.json") && Contains("'tip'") && Contains("\"magnitude\"") &&
                       Contains("<= 1") && Contains("1e+100"));
     CHECK(m.size() < 160);

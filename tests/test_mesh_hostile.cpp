@@ -145,8 +145,8 @@ TEST_CASE("coordinates are doubles; values beyond double are refused", "[mesh][h
     std::string obj;
     for (int j = 0; j < 3; ++j)
       for (int i = 0; i < 3; ++i)
-        obj += "v " + std::to_string(1e6 + 0.01 * i) + " " + std::to_string(1e6 + 0.01 * j) +
-               " 0\n";
+        obj +=
+            "v " + std::to_string(1e6 + 0.01 * i) + " " + std::to_string(1e6 + 0.01 * j) + " 0\n";
     for (int j = 0; j < 2; ++j)
       for (int i = 0; i < 2; ++i) {
         const int a = 1 + i + 3 * j;
@@ -174,8 +174,8 @@ namespace {
 /// Signed area of triangle (a, b, c) in the xy plane.
 double area2(const Mesh& m, int a, int b, int c) {
   const Eigen::MatrixXd p = m.positions();
-  return 0.5 * ((p(b, 0) - p(a, 0)) * (p(c, 1) - p(a, 1)) -
-                (p(b, 1) - p(a, 1)) * (p(c, 0) - p(a, 0)));
+  return 0.5 *
+         ((p(b, 0) - p(a, 0)) * (p(c, 1) - p(a, 1)) - (p(b, 1) - p(a, 1)) * (p(c, 0) - p(a, 0)));
 }
 
 }  // namespace
@@ -184,8 +184,8 @@ TEST_CASE("polygons are ear-clipped in their plane or refused", "[mesh][hostile]
   TempDir tmp;
   SECTION("a non-convex polygon: triangles inside it, none reversed, area kept") {
     // An arrow (concave at the 5th corner); a fan from corner 1 would leave the polygon.
-    const std::string p = tmp.file("arrow.obj",
-                                   "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 2 1 0\nv 0 4 0\nf 1 2 3 4 5\n");
+    const std::string p =
+        tmp.file("arrow.obj", "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 2 1 0\nv 0 4 0\nf 1 2 3 4 5\n");
     const Mesh mesh = readMesh(p);
     REQUIRE(mesh.numElements() == 3);
     double total = 0.0;
@@ -198,8 +198,8 @@ TEST_CASE("polygons are ear-clipped in their plane or refused", "[mesh][hostile]
     CHECK(total == Approx(4 * 4 - 0.5 * 4 * 3));  // the square minus the notch
   }
   SECTION("a polygon in a tilted plane keeps its orientation") {
-    const std::string p = tmp.file("tilted.off",
-                                   "OFF\n5 1 0\n0 0 0\n4 0 4\n4 4 4\n2 1 2\n0 4 0\n5 0 1 2 3 4\n");
+    const std::string p =
+        tmp.file("tilted.off", "OFF\n5 1 0\n0 0 0\n4 0 4\n4 4 4\n2 1 2\n0 4 0\n5 0 1 2 3 4\n");
     const Mesh mesh = readMesh(p);
     REQUIRE(mesh.numElements() == 3);
     const Eigen::MatrixXd x = mesh.positions();

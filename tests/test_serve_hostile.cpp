@@ -56,8 +56,8 @@ TEST_CASE("serve refuses foreign hosts, foreign origins and non-JSON writes", "[
     auto r = s.client->Get("/api/state", {{"Host", "attacker.example:" + std::to_string(s.port)}});
     REQUIRE(r);
     CHECK(r->status == 403);
-    auto w = s.client->Post("/api/handles", {{"Host", "attacker.example"}}, kHandle,
-                            "application/json");
+    auto w =
+        s.client->Post("/api/handles", {{"Host", "attacker.example"}}, kHandle, "application/json");
     REQUIRE(w);
     CHECK(w->status == 403);
   }
@@ -72,16 +72,17 @@ TEST_CASE("serve refuses foreign hosts, foreign origins and non-JSON writes", "[
   }
   CHECK(s.handles() == 0);
   SECTION("the page's own origin and JSON are accepted") {
-    auto r = s.client->Post("/api/handles",
-                            {{"Origin", "http://127.0.0.1:" + std::to_string(s.port)}}, kHandle,
-                            "application/json");
+    auto r =
+        s.client->Post("/api/handles", {{"Origin", "http://127.0.0.1:" + std::to_string(s.port)}},
+                       kHandle, "application/json");
     REQUIRE(r);
     CHECK(r->status == 200);
     CHECK(s.handles() == 1);
   }
 }
 
-TEST_CASE("serve: picked-points files that are devices or missing get one 4xx", "[serve][hostile]") {
+TEST_CASE("serve: picked-points files that are devices or missing get one 4xx",
+          "[serve][hostile]") {
   Server s;
   std::vector<std::string> bodies;
   for (const char* path : {"/dev/zero", "/nonexistent/x.pp", "/etc", "/etc/passwd"})

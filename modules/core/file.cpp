@@ -76,8 +76,7 @@ std::uint64_t checkInputFile(const std::string& path, const std::string& what,
   return static_cast<std::uint64_t>(st.st_size);
 }
 
-std::string readFileLimited(const std::string& path, const std::string& what,
-                            std::uint64_t limit) {
+std::string readFileLimited(const std::string& path, const std::string& what, std::uint64_t limit) {
   const int fd = openChecked(path, what, limit);
   struct stat st {};
   ::fstat(fd, &st);

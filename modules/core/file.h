@@ -27,8 +27,7 @@ std::string readFileLimited(const std::string& path, const std::string& what, st
 
 /// The size of the regular file `path`, with the same checks as readFileLimited (for readers
 /// that hand the file to a library). \throw IoError as readFileLimited.
-std::uint64_t checkInputFile(const std::string& path, const std::string& what,
-                             std::uint64_t limit);
+std::uint64_t checkInputFile(const std::string& path, const std::string& what, std::uint64_t limit);
 
 /// "1.5 MiB", "512 MiB", "300 bytes": a byte count for messages.
 std::string byteText(std::uint64_t bytes);

@@ -12,10 +12,14 @@ size_t sequence(const std::string& s, size_t i) {
   if (c < 0x80) return 1;
   size_t n = 0;
   unsigned min = 0, code = 0;
-  if (c >= 0xc2 && c <= 0xdf) n = 2, min = 0x80, code = c & 0x1f;
-  else if (c >= 0xe0 && c <= 0xef) n = 3, min = 0x800, code = c & 0x0f;
-  else if (c >= 0xf0 && c <= 0xf4) n = 4, min = 0x10000, code = c & 0x07;
-  else return 0;
+  if (c >= 0xc2 && c <= 0xdf)
+    n = 2, min = 0x80, code = c & 0x1f;
+  else if (c >= 0xe0 && c <= 0xef)
+    n = 3, min = 0x800, code = c & 0x0f;
+  else if (c >= 0xf0 && c <= 0xf4)
+    n = 4, min = 0x10000, code = c & 0x07;
+  else
+    return 0;
   if (i + n > s.size()) return 0;
   for (size_t k = 1; k < n; ++k) {
     if ((byte(i + k) & 0xc0) != 0x80) return 0;

@@ -148,7 +148,8 @@ class Scanner {
 /// Throws unless `count` elements of at least `bytesEach` bytes fit into `remaining` bytes.
 void checkCount(const std::string& where, const std::string& what, long long count,
                 std::uint64_t bytesEach, std::uint64_t remaining) {
-  if (count < 0) throw InvalidMesh(where + ": negative " + what + " count " + std::to_string(count));
+  if (count < 0)
+    throw InvalidMesh(where + ": negative " + what + " count " + std::to_string(count));
   if (static_cast<std::uint64_t>(count) > remaining / std::max<std::uint64_t>(bytesEach, 1)) {
     throw InvalidMesh(where + ": the file says " + std::to_string(count) + " " + what +
                       ", more than its remaining " + std::to_string(remaining) +
@@ -175,8 +176,8 @@ RawMesh parseObj(std::string_view text, const std::string& source) {
   while (s.line(t)) {
     if (t[0] == "v") {
       const long long id = static_cast<long long>(raw.points.size()) + 1;
-      if (t.size() < 4) throw InvalidMesh(s.where() + ": vertex " + std::to_string(id) +
-                                          " needs 3 coordinates");
+      if (t.size() < 4)
+        throw InvalidMesh(s.where() + ": vertex " + std::to_string(id) + " needs 3 coordinates");
       Eigen::Vector3d p;
       for (int c = 0; c < 3; ++c) p[c] = coordinate(t[1 + c], s.where(), id);
       raw.points.push_back(p);
@@ -294,8 +295,8 @@ RawMesh parseOff(std::string_view text, const std::string& source) {
       throw InvalidMesh(source + ": the file ends after " + std::to_string(i) + " of " +
                         std::to_string(nv) + " vertices");
     }
-    if (t.size() < 3) throw InvalidMesh(s.where() + ": vertex " + std::to_string(i) +
-                                        " needs 3 coordinates");
+    if (t.size() < 3)
+      throw InvalidMesh(s.where() + ": vertex " + std::to_string(i) + " needs 3 coordinates");
     Eigen::Vector3d p;
     for (int c = 0; c < 3; ++c) p[c] = coordinate(t[c], s.where(), i);
     raw.points.push_back(p);
@@ -336,7 +337,7 @@ struct PlyProperty {
   int size = 0;          ///< bytes of the (item) type
   bool isFloat = false;  ///< float or double
   bool isSigned = true;
-  int countSize = 0;     ///< list: bytes of the count type (0: not a list)
+  int countSize = 0;  ///< list: bytes of the count type (0: not a list)
 };
 
 struct PlyElement {
@@ -347,7 +348,8 @@ struct PlyElement {
   /// The fewest bytes one element takes (binary: scalar sizes; ASCII: a digit and a space each).
   std::uint64_t minBytes(PlyFormat format) const {
     std::uint64_t b = 0;
-    for (const auto& p : props) b += format == PlyFormat::Ascii ? 2 : (p.countSize ? p.countSize : p.size);
+    for (const auto& p : props)
+      b += format == PlyFormat::Ascii ? 2 : (p.countSize ? p.countSize : p.size);
     return std::max<std::uint64_t>(b, 1);
   }
 };
@@ -358,10 +360,10 @@ bool plyType(std::string_view t, PlyProperty& p) {
     const char* b;
     int size;
     bool isFloat, isSigned;
-  } types[] = {{"char", "int8", 1, false, true},     {"uchar", "uint8", 1, false, false},
-               {"short", "int16", 2, false, true},   {"ushort", "uint16", 2, false, false},
-               {"int", "int32", 4, false, true},     {"uint", "uint32", 4, false, false},
-               {"float", "float32", 4, true, true},  {"double", "float64", 8, true, true}};
+  } types[] = {{"char", "int8", 1, false, true},    {"uchar", "uint8", 1, false, false},
+               {"short", "int16", 2, false, true},  {"ushort", "uint16", 2, false, false},
+               {"int", "int32", 4, false, true},    {"uint", "uint32", 4, false, false},
+               {"float", "float32", 4, true, true}, {"double", "float64", 8, true, true}};
   for (const auto& e : types) {
     if (t == e.a || t == e.b) {
       p.size = e.size;
@@ -445,10 +447,14 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
     if (t[0] == "end_header") break;
     if (t[0] == "format" && t.size() >= 2) {
       haveFormat = true;
-      if (t[1] == "ascii") h.format = PlyFormat::Ascii;
-      else if (t[1] == "binary_little_endian") h.format = PlyFormat::Little;
-      else if (t[1] == "binary_big_endian") h.format = PlyFormat::Big;
-      else throw InvalidMesh(where + ": unknown PLY format " + quote(t[1]));
+      if (t[1] == "ascii")
+        h.format = PlyFormat::Ascii;
+      else if (t[1] == "binary_little_endian")
+        h.format = PlyFormat::Little;
+      else if (t[1] == "binary_big_endian")
+        h.format = PlyFormat::Big;
+      else
+        throw InvalidMesh(where + ": unknown PLY format " + quote(t[1]));
     } else if (t[0] == "element" && t.size() == 3) {
       PlyElement e;
       e.name = std::string(t[1]);
@@ -517,10 +523,12 @@ RawMesh parsePly(std::string_view text, const std::string& source) {
     const int xyz[3] = {findProperty(e, {"x"}), findProperty(e, {"y"}), findProperty(e, {"z"})};
     const int ids = findProperty(e, {"vertex_indices", "vertex_index"});
     if (vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0)) {
-      throw InvalidMesh(source + ":" + std::to_string(e.line) + ": the vertex element has no x, y and z");
+      throw InvalidMesh(source + ":" + std::to_string(e.line) +
+                        ": the vertex element has no x, y and z");
     }
     if (face && (ids < 0 || !e.props[ids].countSize)) {
-      throw InvalidMesh(source + ":" + std::to_string(e.line) + ": the face element has no vertex_indices list");
+      throw InvalidMesh(source + ":" + std::to_string(e.line) +
+                        ": the face element has no vertex_indices list");
     }
     for (long long k = 0; k < e.count; ++k) {
       const std::string what = e.name + " " + std::to_string(k);
@@ -539,9 +547,11 @@ RawMesh parsePly(std::string_view text, const std::string& source) {
         const std::string_view tok = t[token++];
         double v = 0.0;
         const Parsed p = parseDouble(tok, v);
-        if (p == Parsed::Bad) throw InvalidMesh(where + ": " + what + ": expected a number, got " + quote(tok));
+        if (p == Parsed::Bad)
+          throw InvalidMesh(where + ": " + what + ": expected a number, got " + quote(tok));
         if (p == Parsed::Overflow) {
-          throw InvalidMesh(where + ": " + what + ": " + quote(tok) + " is beyond the range of double");
+          throw InvalidMesh(where + ": " + what + ": " + quote(tok) +
+                            " is beyond the range of double");
         }
         return v;
       };
@@ -644,7 +654,8 @@ void readMeditVertices(MeditTokens& f, TetMesh& tet) {
     const std::string where = f.where();
     f.number("the reference label of vertex " + std::to_string(i + 1));
     if (!p.allFinite()) {
-      throw InvalidMesh(where + ": vertex " + std::to_string(i + 1) + " has a non-finite coordinate");
+      throw InvalidMesh(where + ": vertex " + std::to_string(i + 1) +
+                        " has a non-finite coordinate");
     }
     tet.points.push_back(p);
   }
@@ -830,8 +841,8 @@ constexpr size_t kMaxSplitFaces = 1000;
 /// [0, numVertices) or a repeated vertex.
 void checkFace(const std::string& source, const RawFace& f, size_t k, long long numVertices,
                int base) {
-  const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") +
-                            ": face " + std::to_string(k + base);
+  const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") + ": face " +
+                            std::to_string(k + base);
   if (f.ids.size() < 3) throw InvalidMesh(where + " has fewer than 3 vertices");
   for (size_t j = 0; j < f.ids.size(); ++j) {
     if (f.ids[j] < 0 || f.ids[j] >= numVertices) {
@@ -926,8 +937,8 @@ void checkOmHeader(std::string_view text, const std::string& source) {
   std::memcpy(counts, text.data() + 4, 12);  // little-endian, as OpenMesh writes on x86
   const std::uint64_t size = text.size();
   // Positions take at least 3 floats a vertex; faces and edges at least 4 bytes each.
-  if (12 * std::uint64_t(counts[0]) + 4 * std::uint64_t(counts[1]) +
-          4 * std::uint64_t(counts[2]) > size) {
+  if (12 * std::uint64_t(counts[0]) + 4 * std::uint64_t(counts[1]) + 4 * std::uint64_t(counts[2]) >
+      size) {
     throw InvalidMesh(source + ": the header says " + std::to_string(counts[0]) + " vertices, " +
                       std::to_string(counts[1]) + " faces and " + std::to_string(counts[2]) +
                       " edges, more than its " + std::to_string(size) + " bytes can hold");

@@ -41,7 +41,8 @@ std::vector<Vec2> project(const std::vector<Eigen::Vector3d>& p, const std::stri
     for (size_t j = 0; j < i; ++j) diameter = std::max(diameter, (p[i] - p[j]).norm());
   }
   if (!(normal.norm() > 1e-14 * diameter * diameter)) {
-    throw InvalidMesh(where + " is a polygon without area (degenerate, or self-intersecting so "
+    throw InvalidMesh(where +
+                      " is a polygon without area (degenerate, or self-intersecting so "
                       "that its parts cancel)");
   }
   normal.normalize();

@@ -160,7 +160,8 @@ std::string HttpServer::refuse(const httplib::Request& req) const {
     if (origin != "http://127.0.0.1:" + port && origin != "http://localhost:" + port)
       return "403 writes are accepted from this server's own page only";
   }
-  const bool body = std::strtoull(req.get_header_value("Content-Length").c_str(), nullptr, 10) > 0 ||
+  const std::string length = req.get_header_value("Content-Length");
+  const bool body = std::strtoull(length.c_str(), nullptr, 10) > 0 ||
                     req.has_header("Transfer-Encoding");
   const std::string type = lower(req.get_header_value("Content-Type"));
   if (body && type.rfind("application/json", 0) != 0)

@@ -162,9 +162,13 @@ int runCompare(int argc, char** argv) {
   std::vector<std::string> outputs;
   for (const char* key : {"output", "report", "markdown"})
     if (vm.count(key)) {
-      outputs.push_back(vm[key].as<std::string>());
-      checkOutputTarget(outputs.back(), key == std::string("output") ? kPictureExtensions
-                                                                      : std::vector<std::string>{});
+      const std::string path = vm[key].as<std::string>();
+      for (const auto& other : outputs)
+        if (canonicalTarget(other) == canonicalTarget(path))
+          throw UsageError("compare: output '" + path + "' given twice");
+      outputs.push_back(path);
+      checkOutputTarget(path, key == std::string("output") ? kPictureExtensions
+                                                           : std::vector<std::string>{});
     }
 
   const Document doc = Document::load(vm["input"].as<std::string>(), vm["handles"].as<std::string>());

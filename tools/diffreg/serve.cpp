@@ -54,6 +54,14 @@ int runServe(int argc, char** argv) {
   if (port < 0 || port > 65535)
     throw UsageError("serve: --port " + std::to_string(port) + " is outside [0, 65535]");
 
+  // SIGINT and SIGTERM are taken by this thread (sigwait, once serving); blocked before any
+  // thread exists (the session's workers, the server's), so none of them is killed by one.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
   const std::string input = vm["input"].as<std::string>();
   Mesh mesh = readMesh(input);
   HandleSet handles;
@@ -67,12 +75,6 @@ int runServe(int argc, char** argv) {
   HttpServer server(api, options);
   const int bound = server.bind("127.0.0.1", port);
 
-  // SIGINT and SIGTERM are taken by this thread (sigwait), the server's threads never see them.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   server.start();
   std::cout << "diffreg serve: http://127.0.0.1:" << bound << "/" << std::endl;
   int received = 0;
