@@ -71,23 +71,6 @@ void orientTets(TetMesh& tet, const std::string& path) {
   warn(path + ": all tets are negatively oriented; reoriented them (swapped two vertices each)");
 }
 
-/// Reads an OpenMesh .om file (it keeps doubles) after checking its header's counts.
-TriMesh readOm(const std::string& path) {
-  const std::string bytes = readFileLimited(path, "mesh file", limits::meshBytes);
-  checkOmHeader(bytes, path);
-  TriMesh tri;
-  OpenMesh::IO::ImporterT<TriMesh> importer(tri);
-  OpenMesh::IO::Options opt = OpenMesh::IO::Options::Custom;  // restore persistent properties
-  std::istringstream in(bytes);
-  bool ok = false;
-  {
-    OpenMeshQuiet quiet;
-    ok = OpenMesh::IO::IOManager().read(in, "om", importer, opt);
-  }
-  if (!ok) throw InvalidMesh(path + ": OpenMesh's om reader cannot read it");
-  return tri;
-}
-
 TetMesh readTetgen(const std::string& path) {
   const std::string ext = extensionOf(path);
   const std::string base = path.substr(0, path.size() - ext.size() - 1);
@@ -293,7 +276,7 @@ Mesh readMesh(const std::string& path) {
   } else if (ext == "ply") {
     mesh = Mesh(buildTriMesh(parsePly(text(), path), path));
   } else if (ext == "om") {
-    mesh = Mesh(readOm(path));
+    mesh = Mesh(parseOm(text(), path));
   } else if (ext == "mesh" || ext == "node" || ext == "ele") {
     TetMesh tet = ext == "mesh" ? parseMedit(text(), path) : readTetgen(path);
     orientTets(tet, path);

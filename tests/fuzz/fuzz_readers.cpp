@@ -1,5 +1,5 @@
 // libFuzzer entry point for diffreg's readers. Built once per input kind (fuzz_obj, fuzz_off,
-// fuzz_ply, fuzz_medit, fuzz_tetgen, fuzz_handles, fuzz_pp, fuzz_xml): the bytes are parsed as
+// fuzz_ply, fuzz_om, fuzz_medit, fuzz_tetgen, fuzz_handles, fuzz_pp, fuzz_xml): the bytes are parsed as
 // that kind, then (for meshes) built and validated as readMesh does. A diffreg::Error is the
 // expected answer to bad input; any other exception, a crash, a sanitizer report, a hang or an
 // allocation over libFuzzer's -malloc_limit_mb is a finding.
@@ -38,6 +38,9 @@ void parse(std::string_view bytes) {
   checkTriangles(parseOff(bytes, "fuzz"));
 #elif defined(DIFFREG_FUZZ_TARGET_ply)
   checkTriangles(parsePly(bytes, "fuzz"));
+#elif defined(DIFFREG_FUZZ_TARGET_om)
+  Mesh mesh(parseOm(bytes, "fuzz"));
+  validateMesh(mesh, "fuzz");
 #elif defined(DIFFREG_FUZZ_TARGET_medit)
   checkTets(parseMedit(bytes, "fuzz"));
 #elif defined(DIFFREG_FUZZ_TARGET_tetgen)
