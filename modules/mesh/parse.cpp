@@ -504,9 +504,112 @@ long long plyIndex(double v) {
 
 }  // namespace
 
+namespace {
+
+/// The values of a PLY body, element by element: ASCII (one line per element) or binary.
+class PlyValues {
+ public:
+  PlyValues(std::string_view text, const PlyHeader& h, const std::string& source)
+      : ascii_(h.format == PlyFormat::Ascii),
+        firstLine_(h.dataLine),
+        source_(source),
+        lines_(text.substr(h.dataStart), source, false),
+        bin_(text.substr(h.dataStart), h.format == PlyFormat::Big, source) {}
+
+  /// Starts element `k` of `e`. \throw InvalidMesh when an ASCII body has no line left.
+  void start(const PlyElement& e, long long k) {
+    what_ = e.name + " " + std::to_string(k);
+    token_ = 0;
+    if (!ascii_) return;
+    if (!lines_.line(tokens_)) {
+      throw InvalidMesh(source_ + ": the file ends after " + std::to_string(k) + " of " +
+                        std::to_string(e.count) + " '" + e.name + "' elements");
+    }
+  }
+  /// The file's line of the current element (0 for binary).
+  int line() const { return ascii_ ? firstLine_ - 1 + lines_.lineNumber() : 0; }
+  std::string where() const {
+    return source_ + (ascii_ ? ":" + std::to_string(line()) : "") + ": " + what_;
+  }
+
+  double next(int size, bool isFloat, bool isSigned) {
+    if (!ascii_) return bin_.value(size, isFloat, isSigned, what_);
+    if (token_ >= tokens_.size()) throw InvalidMesh(where() + " has too few values");
+    const std::string_view tok = tokens_[token_++];
+    double v = 0.0;
+    const Parsed p = parseDouble(tok, v);
+    if (p == Parsed::Bad) throw InvalidMesh(where() + ": expected a number, got " + quote(tok));
+    if (p == Parsed::Overflow) {
+      throw InvalidMesh(where() + ": " + quote(tok) + " is beyond the range of double");
+    }
+    return v;
+  }
+
+  /// The length of list `prop`: at most one item per token (ASCII) or per item size (binary)
+  /// left, compared as doubles since an ASCII length may be any number.
+  long long listLength(const PlyProperty& prop) {
+    const double n = next(prop.countSize, false, false);
+    const double most = ascii_ ? static_cast<double>(tokens_.size())
+                               : static_cast<double>(bin_.remaining() / prop.size + 1);
+    if (!(n >= 0 && n <= most && n == std::floor(n))) {
+      throw InvalidMesh(where() + " has a bad list length " +
+                        quote(ascii_ ? tokens_[token_ - 1] : std::string_view("(binary)")));
+    }
+    return static_cast<long long>(n);
+  }
+
+ private:
+  bool ascii_;
+  int firstLine_;
+  std::string source_;
+  Scanner lines_;
+  BinaryReader bin_;
+  std::vector<std::string_view> tokens_;
+  size_t token_ = 0;
+  std::string what_;
+};
+
+/// Reads the `e.count` elements of `e`; vertices and faces go to `raw`, others are skipped.
+void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& source, RawMesh& raw) {
+  const bool vertex = e.name == "vertex", face = e.name == "face";
+  const int xyz[3] = {findProperty(e, {"x"}), findProperty(e, {"y"}), findProperty(e, {"z"})};
+  const int ids = findProperty(e, {"vertex_indices", "vertex_index"});
+  const std::string where = source + ":" + std::to_string(e.line);
+  if (vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
+    throw InvalidMesh(where + ": the vertex element has no x, y and z");
+  if (face && (ids < 0 || !e.props[ids].countSize))
+    throw InvalidMesh(where + ": the face element has no vertex_indices list");
+  for (long long k = 0; k < e.count; ++k) {
+    in.start(e, k);
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    RawFace f{in.line(), {}};
+    for (size_t i = 0; i < e.props.size(); ++i) {
+      const PlyProperty& prop = e.props[i];
+      const bool mine = face && static_cast<int>(i) == ids;
+      if (prop.countSize) {
+        const long long n = in.listLength(prop);
+        for (long long j = 0; j < n; ++j) {
+          const double id = in.next(prop.size, prop.isFloat, prop.isSigned);
+          if (mine) f.ids.push_back(plyIndex(id));
+        }
+        continue;
+      }
+      const double v = in.next(prop.size, prop.isFloat, prop.isSigned);
+      for (int c = 0; c < 3; ++c)
+        if (vertex && static_cast<int>(i) == xyz[c]) p[c] = v;
+    }
+    if (vertex) {
+      if (!p.allFinite()) throw InvalidMesh(in.where() + " has a non-finite coordinate");
+      raw.points.push_back(p);
+    }
+    if (face) raw.faces.push_back(std::move(f));
+  }
+}
+
+}  // namespace
+
 RawMesh parsePly(std::string_view text, const std::string& source) {
   const PlyHeader h = parsePlyHeader(text, source);
-  RawMesh raw;
   std::uint64_t need = 0;
   const std::uint64_t have = text.size() - h.dataStart;
   for (const PlyElement& e : h.elements) {
@@ -514,80 +617,9 @@ RawMesh parsePly(std::string_view text, const std::string& source) {
                e.minBytes(h.format), have - std::min(need, have));
     need += static_cast<std::uint64_t>(e.count) * e.minBytes(h.format);
   }
-  const bool ascii = h.format == PlyFormat::Ascii;
-  Scanner s(text.substr(h.dataStart), source, false);
-  BinaryReader bin(text.substr(h.dataStart), h.format == PlyFormat::Big, source);
-  std::vector<std::string_view> t;
-  std::vector<double> values;
-  std::vector<long long> list;
-  for (const PlyElement& e : h.elements) {
-    const bool vertex = e.name == "vertex", face = e.name == "face";
-    const int xyz[3] = {findProperty(e, {"x"}), findProperty(e, {"y"}), findProperty(e, {"z"})};
-    const int ids = findProperty(e, {"vertex_indices", "vertex_index"});
-    if (vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0)) {
-      throw InvalidMesh(source + ":" + std::to_string(e.line) +
-                        ": the vertex element has no x, y and z");
-    }
-    if (face && (ids < 0 || !e.props[ids].countSize)) {
-      throw InvalidMesh(source + ":" + std::to_string(e.line) +
-                        ": the face element has no vertex_indices list");
-    }
-    for (long long k = 0; k < e.count; ++k) {
-      const std::string what = e.name + " " + std::to_string(k);
-      std::string where = source;
-      size_t token = 0;
-      if (ascii) {
-        if (!s.line(t)) {
-          throw InvalidMesh(source + ": the file ends after " + std::to_string(k) + " of " +
-                            std::to_string(e.count) + " '" + e.name + "' elements");
-        }
-        where = source + ":" + std::to_string(h.dataLine - 1 + s.lineNumber());
-      }
-      auto next = [&](int size, bool isFloat, bool isSigned) -> double {
-        if (!ascii) return bin.value(size, isFloat, isSigned, what);
-        if (token >= t.size()) throw InvalidMesh(where + ": " + what + " has too few values");
-        const std::string_view tok = t[token++];
-        double v = 0.0;
-        const Parsed p = parseDouble(tok, v);
-        if (p == Parsed::Bad)
-          throw InvalidMesh(where + ": " + what + ": expected a number, got " + quote(tok));
-        if (p == Parsed::Overflow) {
-          throw InvalidMesh(where + ": " + what + ": " + quote(tok) +
-                            " is beyond the range of double");
-        }
-        return v;
-      };
-      Eigen::Vector3d p = Eigen::Vector3d::Zero();
-      RawFace f{ascii ? h.dataLine - 1 + s.lineNumber() : 0, {}};
-      for (size_t i = 0; i < e.props.size(); ++i) {
-        const PlyProperty& prop = e.props[i];
-        if (prop.countSize) {
-          const double n = next(prop.countSize, false, false);
-          // At most one item per token (ASCII) or per item size (binary) left: compared as
-          // doubles, since an ASCII count may be any number.
-          const double most = ascii ? static_cast<double>(t.size())
-                                    : static_cast<double>(bin.remaining() / prop.size + 1);
-          if (!(n >= 0 && n <= most && n == std::floor(n))) {
-            throw InvalidMesh(where + ": " + what + " has a bad list length " +
-                              quote(ascii ? t[token - 1] : std::string_view("(binary)")));
-          }
-          list.clear();
-          for (long long j = 0; j < static_cast<long long>(n); ++j)
-            list.push_back(plyIndex(next(prop.size, prop.isFloat, prop.isSigned)));
-          if (face && static_cast<int>(i) == ids) f.ids = list;
-        } else {
-          const double v = next(prop.size, prop.isFloat, prop.isSigned);
-          for (int c = 0; c < 3; ++c)
-            if (vertex && static_cast<int>(i) == xyz[c]) p[c] = v;
-        }
-      }
-      if (vertex) {
-        if (!p.allFinite()) throw InvalidMesh(where + ": " + what + " has a non-finite coordinate");
-        raw.points.push_back(p);
-      }
-      if (face) raw.faces.push_back(std::move(f));
-    }
-  }
+  RawMesh raw;
+  PlyValues values(text, h, source);
+  for (const PlyElement& e : h.elements) readPlyElement(values, e, source, raw);
   return raw;
 }
 
@@ -942,8 +974,7 @@ void checkOmHeader(std::string_view text, const std::string& source) {
   std::memcpy(counts, text.data() + 4, 12);  // little-endian, as OpenMesh writes on x86
   const std::uint64_t size = text.size();
   // Positions take at least 3 floats a vertex; faces and edges at least 4 bytes each.
-  if (12 * std::uint64_t(counts[0]) + 4 * std::uint64_t(counts[1]) +
-          4 * std::uint64_t(counts[2]) >
+  if (12 * std::uint64_t(counts[0]) + 4 * std::uint64_t(counts[1]) + 4 * std::uint64_t(counts[2]) >
       size) {
     throw InvalidMesh(source + ": the header says " + std::to_string(counts[0]) + " vertices, " +
                       std::to_string(counts[1]) + " faces and " + std::to_string(counts[2]) +
