@@ -150,7 +150,12 @@ void StagedOutputs::commit() {
   for (const Entry& e : staged_) {
     std::string backup;
     std::error_code ec;
-    if (fs::exists(fs::symlink_status(e.target, ec))) {
+    const fs::file_status st = fs::symlink_status(e.target, ec);
+    if (fs::is_directory(st)) {  // became one after the checks: never moved aside
+      undo();
+      throw IoError("cannot write '" + e.target + "': it is a directory");
+    }
+    if (fs::exists(st)) {
       backup = e.temporary + ".old";
       if (std::rename(e.target.c_str(), backup.c_str()) != 0) {
         const int err = errno;
