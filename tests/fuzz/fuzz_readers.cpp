@@ -1,7 +1,7 @@
 // libFuzzer entry point for diffreg's readers. Built once per input kind (fuzz_obj, fuzz_off,
-// fuzz_ply, fuzz_om, fuzz_medit, fuzz_tetgen, fuzz_handles, fuzz_pp, fuzz_xml): the bytes are parsed as
-// that kind, then (for meshes) built and validated as readMesh does. A diffreg::Error is the
-// expected answer to bad input; any other exception, a crash, a sanitizer report, a hang or an
+// fuzz_ply, fuzz_om, fuzz_medit, fuzz_tetgen, fuzz_handles, fuzz_pp, fuzz_mlx): the bytes are
+// parsed as that kind, then (for meshes) built and validated as readMesh does. A diffreg::Error is
+// the expected answer to bad input; any other exception, a crash, a sanitizer report, a hang or an
 // allocation over libFuzzer's -malloc_limit_mb is a finding.
 #include "core/error.h"
 #include "core/log.h"
@@ -10,6 +10,7 @@
 #include "mesh/io.h"
 #include "mesh/parse.h"
 #include "mesh/shapes.h"
+#include "pipeline/mlx.h"
 
 #include <cstdint>
 #include <cstdio>
@@ -20,6 +21,29 @@
 namespace {
 
 using namespace diffreg;
+
+/// A stand-in for the built-in filters (which need the whole library): one parameter of every
+/// type, under the name of the seed script's filter.
+class ParamsOnly : public Filter {
+ public:
+  std::string name() const override { return "diffuse_weights"; }
+  std::string description() const override { return "fuzzing stand-in"; }
+  std::vector<ParamSpec> params() const override {
+    return {floatParam("t", "0.01", 0.0, 1e6, ""),
+            intParam("steps", "100", 1, 100000, ""),
+            boolParam("clip", false, ""),
+            enumParam("order", "second", {"second", "first", "implicit_euler"}, ""),
+            stringParam("file", "", ""),
+            floatParam("beta", "0.5", -1e300, 1e300, "")};
+  }
+  FilterResult apply(Document&, const ParamMap&) const override { return {}; }
+};
+
+Registry mlxRegistry() {
+  Registry r;
+  r.add(std::make_unique<ParamsOnly>());
+  return r;
+}
 
 void checkTriangles(const RawMesh& raw) {
   Mesh mesh(buildTriMesh(raw, "fuzz"));
@@ -54,8 +78,9 @@ void parse(std::string_view bytes) {
   parseHandles(std::string(bytes), mesh, "fuzz.json", "/nonexistent-fuzz-dir");
 #elif defined(DIFFREG_FUZZ_TARGET_pp)
   parsePickedPoints(std::string(bytes), "fuzz.pp");
-#elif defined(DIFFREG_FUZZ_TARGET_xml)
-  parseXml(std::string(bytes), "fuzz.mlx");
+#elif defined(DIFFREG_FUZZ_TARGET_mlx)
+  static const Registry registry = mlxRegistry();
+  parseFilterScript(std::string(bytes), "fuzz.mlx", registry);
 #else
 #error "define DIFFREG_FUZZ_TARGET_<kind>"
 #endif

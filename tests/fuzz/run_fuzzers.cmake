@@ -4,7 +4,7 @@
 # the fuzzer finds, so the repository's corpus stays as committed). Fails on the first finding.
 #   cmake -DFUZZ_DIR=<dir of the fuzz_* binaries> -DCORPUS=<tests/fuzz/corpus>
 #         -DWORK=<scratch dir> -DSECONDS=7 -P run_fuzzers.cmake
-foreach(kind obj off ply medit tetgen handles pp xml)
+foreach(kind obj off ply medit tetgen handles pp mlx)
   set(exe ${FUZZ_DIR}/fuzz_${kind})
   if(NOT EXISTS ${exe})
     message(FATAL_ERROR "fuzz: ${exe} was not built")
