@@ -11,6 +11,7 @@
 #include <boost/program_options.hpp>
 
 #include <chrono>
+#include <cerrno>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -19,6 +20,8 @@
 #include <string>
 #include <future>
 #include <thread>
+
+#include <unistd.h>
 
 namespace po = boost::program_options;
 
@@ -34,6 +37,31 @@ const char* kServeUsage =
     "drag them, tune the energy, the regularization and the weights, and save the handles, the\n"
     "deformed mesh and a picture. The page's JSON API can be driven by scripts as well.\n"
     "Stops on Ctrl-C (SIGINT) or SIGTERM.\n";
+
+int stopPipe[2] = {-1, -1};
+
+extern "C" void onStopSignal(int) {
+  const char c = 1;
+  const ssize_t ignored = ::write(stopPipe[1], &c, 1);  // async-signal-safe
+  (void)ignored;
+}
+
+void installStopHandler() {
+  if (::pipe(stopPipe) != 0) throw IoError("serve: cannot create a pipe for the stop signal");
+  struct sigaction action {};
+  action.sa_handler = onStopSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
+}
+
+/// Returns once SIGINT or SIGTERM has arrived (now or before).
+void waitForStop() {
+  char c = 0;
+  while (::read(stopPipe[0], &c, 1) < 0 && errno == EINTR) {
+  }
+}
 
 }  // namespace
 
@@ -54,13 +82,9 @@ int runServe(int argc, char** argv) {
   if (port < 0 || port > 65535)
     throw UsageError("serve: --port " + std::to_string(port) + " is outside [0, 65535]");
 
-  // SIGINT and SIGTERM are taken by this thread (sigwait, once serving); blocked before any
-  // thread exists (the session's workers, the server's), so none of them is killed by one.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // SIGINT and SIGTERM run a handler in whichever thread receives them (some, like BLAS's
+  // workers, exist before main), so none of them kills the process; this thread then stops.
+  installStopHandler();
 
   const std::string input = vm["input"].as<std::string>();
   Mesh mesh = readMesh(input);
@@ -77,8 +101,7 @@ int runServe(int argc, char** argv) {
 
   server.start();
   std::cout << "diffreg serve: http://127.0.0.1:" << bound << "/" << std::endl;
-  int received = 0;
-  sigwait(&signals, &received);
+  waitForStop();
   // Stop within a second even when a request is still running (a long solve): after that
   // the process ends without waiting for it.
   std::promise<void> stopped;
