@@ -104,7 +104,7 @@ TEST_CASE("diffreg writes a PLY with quality and colours, and a report") {
   const std::string ply = slurp(ws.dir() / "out.ply");
   const std::string header = ply.substr(0, ply.find("end_header"));
   CHECK(header.find("element vertex " + std::to_string(ws.vertices()) + "\n") != std::string::npos);
-  CHECK(header.find("property float quality") != std::string::npos);
+  CHECK(header.find("property double quality") != std::string::npos);
   CHECK(header.find("property uchar red") != std::string::npos);
   CHECK(header.find("property uchar green") != std::string::npos);
   CHECK(header.find("property uchar blue") != std::string::npos);

@@ -55,7 +55,7 @@ TEST_CASE("diffreg chains diffuse_weights, deform and measure on planar, surface
     const std::string ply = slurp(s.dir / "out.ply");
     const std::string header = ply.substr(0, ply.find("end_header"));
     CHECK(header.find("element face") != std::string::npos);
-    CHECK(header.substr(header.find("element face")).find("property float quality") !=
+    CHECK(header.substr(header.find("element face")).find("property double quality") !=
           std::string::npos);
     CHECK(written.numVertices() > 0);
     if (std::string(mesh) == "tetbar.mesh") {

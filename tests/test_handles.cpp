@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "handles/handles.h"
+#include "mesh/shapes.h"
 
 #include <catch2/catch.hpp>
 
@@ -253,5 +254,56 @@ TEST_CASE("handlesToJson parses back identically", "[handles]") {
       CHECK(a.handles[i].range == b.handles[i].range);
       CHECK(a.handles[i].magnitude == b.handles[i].magnitude);
     }
+  }
+}
+
+TEST_CASE("hostile handle values are refused up front, naming file, handle and field",
+          "[handles][hostile]") {
+  using Catch::Contains;
+  const Mesh mesh = makeRectangle(1.0, 1.0, 3, 3);
+  const auto message = [&](const std::string& json) {
+    try {
+      parseHandles(json, mesh, "h.json");
+    } catch (const InvalidParameter& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  SECTION("magnitude above 1, with a short number") {
+    const std::string m =
+        message(R"({"handles": [{"name": "tip", "vertices": [1], "magnitude": 1e100}]})");
+    CHECK_THAT(m, Contains("h.json") && Contains("'tip'") && Contains("\"magnitude\"") &&
+                      Contains("<= 1") && Contains("1e+100"));
+    CHECK(m.size() < 160);
+  }
+  SECTION("a vertex id of 2^64-1 is reported as written") {
+    CHECK_THAT(message(R"({"handles": [{"vertices": [18446744073709551615]}]})"),
+               Contains("18446744073709551615") && Contains("out of range"));
+  }
+  SECTION("a rotate axis of length 1e300 is the x axis, not a collapse to a point") {
+    const Mesh solid = makeRectangle(1.0, 1.0, 3, 3);
+    Mesh bent = solid;
+    Eigen::MatrixXd p = bent.positions();
+    p(4, 2) = 0.3;  // not planar any more
+    bent.setPositions(p);
+    const HandleSet set = parseHandles(
+        R"({"handles": [{"vertices": [0, 2, 8], "rotate": {"center": [0, 0, 0],
+            "axis": [1e300, 0, 0], "degrees": 90}}]})",
+        Mesh(bent.tri()), "h.json");
+    const Eigen::MatrixXd t = set.handles[0].targets;
+    const Eigen::MatrixXd r = bent.positions();
+    for (int i = 0; i < 3; ++i) {
+      const int v = set.handles[0].vertices[i];
+      CHECK(t(i, 0) == Approx(r(v, 0)));  // x kept
+      CHECK(std::hypot(t(i, 1), t(i, 2)) == Approx(std::hypot(r(v, 1), r(v, 2))));
+    }
+    CHECK((t.row(1) - t.row(2)).norm() == Approx((r.row(2) - r.row(8)).norm()));
+  }
+  SECTION("a translate that overflows or goes far away") {
+    CHECK_THAT(message(R"({"handles": [{"vertices": [1], "translate": [1e30, 0]}]})"),
+               Contains("1000 mesh diagonals"));
+    CHECK_THAT(message(R"({"handles": [{"vertices": [1], "translate": [1.7e308, 0]},
+                                       {"vertices": [2], "translate": [1.7e308, 0]}]})"),
+               Contains("target of vertex 1"));
   }
 }

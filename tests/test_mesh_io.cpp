@@ -542,12 +542,12 @@ TEST_CASE("PLY carries vertex and face quality and viridis colours", "[mesh][io]
     TriMesh back;
     OpenMesh::IO::Options opt = OpenMesh::IO::Options::Custom;
     REQUIRE(OpenMesh::IO::read_mesh(back, out, opt));
-    OpenMesh::VPropHandleT<float> vq;
-    OpenMesh::FPropHandleT<float> fq;
+    OpenMesh::VPropHandleT<double> vq;
+    OpenMesh::FPropHandleT<double> fq;
     REQUIRE(back.get_property_handle(vq, "quality"));
     REQUIRE(back.get_property_handle(fq, "quality"));
-    for (int i = 0; i < 4; ++i) CHECK(back.property(vq, back.vertex_handle(i)) == float(w[i]));
-    CHECK(back.property(fq, back.face_handle(1)) == float(d[1]));
+    for (int i = 0; i < 4; ++i) CHECK(back.property(vq, back.vertex_handle(i)) == w[i]);
+    CHECK(back.property(fq, back.face_handle(1)) == d[1]);
   }
   SECTION("no properties, no colours: plain PLY that readMesh reads") {
     const Mesh plain = readMesh(tmp.file("p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));

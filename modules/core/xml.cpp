@@ -1,6 +1,7 @@
 #include "core/xml.h"
 
 #include "core/error.h"
+#include "core/file.h"
 
 #include <algorithm>
 #include <cctype>
@@ -310,19 +311,7 @@ XmlDocument parseXml(const std::string& text, const std::string& source) {
 }
 
 XmlDocument readXml(const std::string& path, const std::string& what) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw IoError("cannot open " + what + " '" + path + "': no such file");
-  }
-  if (std::filesystem::is_directory(path, ec)) {
-    throw IoError("cannot read " + what + " '" + path + "': is a directory");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError("cannot open " + what + " '" + path + "'");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw IoError("cannot read " + what + " '" + path + "'");
-  return parseXml(text.str(), path);
+  return parseXml(readFileLimited(path, what, limits::textBytes), path);
 }
 
 std::string xmlEscape(const std::string& text) {

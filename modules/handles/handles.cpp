@@ -1,6 +1,8 @@
 #include "handles/handles.h"
 
 #include "core/error.h"
+#include "core/file.h"
+#include "core/text.h"
 #include "core/xml.h"
 
 #include <Eigen/Geometry>
@@ -8,6 +10,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <cstdlib>
 #include <cmath>
 #include <filesystem>
@@ -33,18 +36,29 @@ std::string join(const std::vector<std::string>& words) {
   return out;
 }
 
+/// `v` with at most 6 significant digits, for messages ("1e+100", not 100 digits).
+std::string shortNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
 /// Parses one handle file against a mesh; every error names the source and the handle.
 class Parser {
  public:
-  Parser(const Mesh& mesh, std::string source, std::string baseDir)
+  Parser(const Mesh& mesh, std::string source, std::string baseDir, bool revealFiles)
       : source_(std::move(source)),
         baseDir_(std::move(baseDir)),
+        revealFiles_(revealFiles),
         rest_(mesh.positions()),
         used_(mesh.referenced()),
         planar_(mesh.kind() == MeshKind::Planar) {
     if (rest_.rows() > 0) {
       planeZ_ = rest_(0, 2);
-      tol_ = 1e-9 * std::max(1.0, (rest_.colwise().maxCoeff() - rest_.colwise().minCoeff()).norm());
+      const double diagonal = (rest_.colwise().maxCoeff() - rest_.colwise().minCoeff()).norm();
+      tol_ = 1e-9 * std::max(1.0, diagonal);
+      center_ = 0.5 * (rest_.colwise().maxCoeff() + rest_.colwise().minCoeff()).transpose();
+      reach_ = 1000.0 * std::max(diagonal, 1e-300);
     }
   }
 
@@ -150,7 +164,7 @@ class Parser {
 
   void checkPlanar(const Eigen::Vector3d& target, const std::string& what) const {
     if (planar_ && std::abs(target[2] - planeZ_) > tol_) {
-      fail(what + " leaves the plane of the planar mesh (z must be " + std::to_string(planeZ_) +
+      fail(what + " leaves the plane of the planar mesh (z must be " + shortNumber(planeZ_) +
            ")");
     }
   }
@@ -162,10 +176,10 @@ class Parser {
       if (!list.is_array()) fail("\"vertices\" must be an array of vertex ids");
       for (const json& id : list) {
         if (!id.is_number_integer()) fail("vertex ids must be integers, got " + id.dump());
-        const long long v = id.get<long long>();
+        const bool huge = id.is_number_unsigned() && id.get<unsigned long long>() > 1u << 31;
+        const long long v = huge ? -1 : id.get<long long>();
         if (v < 0 || v >= rest_.rows()) {
-          fail("vertex id " + std::to_string(v) + " out of range 0.." +
-               std::to_string(rest_.rows() - 1));
+          fail("vertex id " + id.dump() + " out of range 0.." + std::to_string(rest_.rows() - 1));
         }
         if (!used_[v]) fail("vertex " + std::to_string(v) + " is not part of any element");
         ids.push_back(static_cast<int>(v));
@@ -192,11 +206,11 @@ class Parser {
       }
       const Eigen::Vector3d c = vec(w["center"], "\"within\" center", planeZ_);
       const double r = number(w["radius"], "\"within\" radius");
-      if (r <= 0.0) fail("\"within\" radius must be > 0");
+      if (!(r > 0.0)) fail("\"within\" radius must be > 0");
       for (int v = 0; v < rest_.rows(); ++v) {
         if (used_[v] && (rest_.row(v).transpose() - c).norm() <= r) ids.push_back(v);
       }
-      if (ids.empty()) fail("no vertex lies within radius " + std::to_string(r) + " of the center");
+      if (ids.empty()) fail("no vertex lies within radius " + shortNumber(r) + " of the center");
     }
     if (ids.empty()) fail("empty handle (no vertices selected)");
     std::vector<int> sorted = ids;
@@ -233,8 +247,10 @@ class Parser {
       } else if (!planar_) {
         fail("\"rotate\" needs an \"axis\" on a non-planar mesh");
       }
-      if (axis.norm() == 0.0) fail("\"rotate\" axis is zero");
-      axis.normalize();
+      // Scaled by its largest component first: [1e300, 0, 0] must not overflow to inf.
+      const double largest = axis.cwiseAbs().maxCoeff();
+      if (largest == 0.0) fail("\"rotate\" axis is zero");
+      axis = (axis / largest).normalized();
       if (planar_ && std::abs(std::abs(axis[2]) - 1.0) > 1e-12) {
         fail("on a planar mesh the \"rotate\" axis must be the z axis");
       }
@@ -257,6 +273,16 @@ class Parser {
       }
     }
     return targets;
+  }
+
+  /// Every target finite and within 1000 mesh diagonals of the mesh (as diffreg serve).
+  void checkTargets(const Handle& h) const {
+    for (Eigen::Index i = 0; i < h.targets.rows(); ++i) {
+      const Eigen::Vector3d p = h.targets.row(i).transpose();
+      const std::string which = "the target of vertex " + std::to_string(h.vertices[i]);
+      if (!p.allFinite()) fail(which + " is not finite (the motion overflows)");
+      if ((p - center_).norm() > reach_) fail(which + " is more than 1000 mesh diagonals away");
+    }
   }
 
   Handle parseHandle(const json& h, size_t index, const std::string& origin = "") {
@@ -283,14 +309,17 @@ class Parser {
     const int motions = h.contains("translate") + h.contains("rotate") + h.contains("targets");
     if (motions > 1) fail("give at most one of \"translate\", \"rotate\", \"targets\"");
 
-    out.vertices = select(h);
-    out.targets = move(h, out.vertices);
     if (h.contains("range")) out.range = number(h["range"], "\"range\"");
     if (h.contains("magnitude")) out.magnitude = number(h["magnitude"], "\"magnitude\"");
-    if (!(out.range > 0.0)) fail("\"range\" must be > 0, got " + std::to_string(out.range));
-    if (!(out.magnitude >= 0.0)) {
-      fail("\"magnitude\" must be >= 0, got " + std::to_string(out.magnitude));
+    if (!(out.range > 0.0 && out.range <= 1e6)) {
+      fail("\"range\" must be > 0 and at most 1e6, got " + shortNumber(out.range));
     }
+    if (!(out.magnitude >= 0.0 && out.magnitude <= 1.0)) {
+      fail("\"magnitude\" must be >= 0 and <= 1, got " + shortNumber(out.magnitude));
+    }
+    out.vertices = select(h);
+    out.targets = move(h, out.vertices);
+    checkTargets(out);
     return out;
   }
 
@@ -307,10 +336,11 @@ class Parser {
     if (it != picked_.end()) return it->second;
     try {
       return picked_.emplace(path, readPickedPoints(path)).first->second;
-    } catch (const IoError& e) {
-      throw IoError(source_ + ": " + label_ + ": " + e.what());
-    } catch (const InvalidParameter& e) {
-      throw InvalidParameter(source_ + ": " + label_ + ": " + e.what());
+    } catch (const Error& e) {
+      const std::string where = source_ + ": " + label_ + ": ";
+      if (!revealFiles_) throw IoError(where + "a picked points file cannot be read");
+      if (dynamic_cast<const IoError*>(&e)) throw IoError(where + e.what());
+      throw InvalidParameter(where + e.what());
     }
   }
 
@@ -432,12 +462,15 @@ class Parser {
 
   std::string source_;
   std::string baseDir_;
+  bool revealFiles_ = true;  ///< messages may say why a picked points file cannot be used
   mutable std::map<std::string, std::vector<PickedPoint>> picked_;  ///< .pp files read so far
   Eigen::MatrixXd rest_;
   std::vector<bool> used_;
   bool planar_;
   double planeZ_ = 0.0;
   double tol_ = 1e-9;
+  Eigen::Vector3d center_ = Eigen::Vector3d::Zero();
+  double reach_ = 1e300;  ///< targets farther than this from center_ are refused
   std::string label_;
 };
 
@@ -478,7 +511,7 @@ std::vector<PickedPoint> parsePickedPoints(const std::string& xmlText, const std
     if (e.name != "point") continue;  // <DocumentData> and the like
     PickedPoint p;
     p.line = e.line;
-    if (const std::string* name = e.attribute("name")) p.name = *name;
+    if (const std::string* name = e.attribute("name")) p.name = escapeNonUtf8(*name);
     const std::string what = "point" + (p.name.empty() ? std::string() : " '" + p.name + "'");
     const char* axes[] = {"x", "y", "z"};
     for (int c = 0; c < 3; ++c) {
@@ -507,40 +540,17 @@ std::vector<PickedPoint> parsePickedPoints(const std::string& xmlText, const std
 }
 
 std::vector<PickedPoint> readPickedPoints(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw IoError("cannot open picked points file '" + path + "': no such file");
-  }
-  if (std::filesystem::is_directory(path, ec)) {
-    throw IoError("cannot read picked points file '" + path + "': is a directory");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError("cannot open picked points file '" + path + "'");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw IoError("cannot read picked points file '" + path + "'");
-  return parsePickedPoints(text.str(), path);
+  return parsePickedPoints(readFileLimited(path, "picked points file", limits::textBytes), path);
 }
 
 HandleSet readHandles(const std::string& path, const Mesh& mesh) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw IoError("cannot open handle file '" + path + "': no such file");
-  }
-  if (std::filesystem::is_directory(path, ec)) {
-    throw IoError("cannot read handle file '" + path + "': is a directory");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError("cannot open handle file '" + path + "'");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw IoError("cannot read handle file '" + path + "'");
-  return parseHandles(text.str(), mesh, path, std::filesystem::path(path).parent_path().string());
+  const std::string text = readFileLimited(path, "handle file", limits::textBytes);
+  return parseHandles(text, mesh, path, std::filesystem::path(path).parent_path().string());
 }
 
 HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source,
-                       const std::string& baseDir) {
-  return Parser(mesh, source, baseDir).parse(jsonText);
+                       const std::string& baseDir, bool revealFiles) {
+  return Parser(mesh, source, baseDir, revealFiles).parse(jsonText);
 }
 
 std::string handlesToJson(const HandleSet& handles) {

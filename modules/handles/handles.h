@@ -14,8 +14,8 @@ struct Handle {
   std::string name;
   std::vector<int> vertices;  ///< mesh vertex ids (the file's numbering)
   Eigen::MatrixXd targets;    ///< |vertices| x 3 target positions (planar: z = rest z)
-  double range = 1.0;         ///< r_j > 0
-  double magnitude = 1.0;     ///< m_j >= 0
+  double range = 1.0;         ///< r_j in (0, 1e6]
+  double magnitude = 1.0;     ///< m_j in [0, 1]
 };
 
 struct HandleSet {
@@ -54,14 +54,18 @@ std::vector<PickedPoint> readPickedPoints(const std::string& path);
 /// targets. Relative .pp paths are resolved against the handle file's directory.
 /// \throw IoError unreadable handle or .pp file. \throw InvalidParameter malformed JSON or
 ///        .pp, unknown keys, vertex ids out of range, empty handle, a vertex in two handles,
-///        range <= 0, magnitude < 0, a .pp without active points, a picked name not found
-///        (each naming the file and the handle).
+///        range outside (0, 1e6], magnitude outside [0, 1], a target that is not finite or
+///        more than 1000 mesh diagonals away, a .pp without active points, a picked name not
+///        found (each naming the file, the handle and the field). Files are read through
+///        readFileLimited (16 MiB, regular files only).
 HandleSet readHandles(const std::string& path, const Mesh& mesh);
 
 /// Same, from JSON text; `source` names it in messages and relative .pp paths are resolved
-/// against `baseDir` ("" = the working directory).
+/// against `baseDir` ("" = the working directory). With `revealFiles` false (text from a
+/// network client), any problem with a .pp file it names is one IoError that says neither
+/// whether the file exists nor what it holds.
 HandleSet parseHandles(const std::string& jsonText, const Mesh& mesh, const std::string& source,
-                       const std::string& baseDir = "");
+                       const std::string& baseDir = "", bool revealFiles = true);
 
 /// Writes the resolved handles as JSON ("vertices" + "targets") that readHandles accepts.
 std::string handlesToJson(const HandleSet& handles);

@@ -9,12 +9,15 @@
 
 namespace diffreg {
 
-/// Reads OBJ, OFF, PLY, OM (through OpenMesh), Medit .mesh (Vertices + Tetrahedra; other
-/// blocks ignored) or TetGen .node/.ele (either name given; the other is found beside it),
-/// then validates it (see validateMesh). Polygonal faces are triangulated with a warning.
-/// \throw IoError missing or unreadable file, unknown extension.
-/// \throw InvalidMesh empty, non-finite coordinates, out-of-range indices, degenerate elements,
-///        inverted tets (naming the element index and the file).
+/// Reads OBJ, OFF, PLY (ASCII or binary), OM (through OpenMesh), Medit .mesh (Vertices +
+/// Tetrahedra; other blocks ignored) or TetGen .node/.ele (either name given; the other is
+/// found beside it) in double precision (mesh/parse.h), then validates it (see validateMesh).
+/// Polygonal faces are ear-clipped in their plane, with a warning. Files are read through
+/// readFileLimited (regular files of at most limits::meshBytes).
+/// \throw IoError missing, unreadable, special or oversized file, unknown extension.
+/// \throw InvalidMesh malformed content, counts the file cannot hold, values beyond double,
+///        empty, out-of-range indices, bad polygons, degenerate elements, inverted tets
+///        (naming the file and the line or element).
 Mesh readMesh(const std::string& path);
 
 /// Checks a mesh read from `path` (used in messages). Unreferenced vertices are kept, with a
@@ -22,18 +25,20 @@ Mesh readMesh(const std::string& path);
 void validateMesh(const Mesh& mesh, const std::string& path);
 
 struct WriteOptions {
-  /// PLY: vertex property written as float "quality" (and colours), if present.
+  /// PLY: vertex property written as double "quality" (and colours), if present.
   std::string vertexQuality = prop::weight;
-  /// PLY: element property written as face float "quality", if present.
+  /// PLY: element property written as face double "quality", if present.
   std::string faceQuality = prop::distortion;
   /// PLY: vertex colours from viridis over the vertex quality (0..1 unless normalised).
   bool colors = true;
 };
 
 /// Writes OBJ/OFF/PLY/OM for triangle meshes, Medit .mesh for tet meshes (and PLY for a tet
-/// mesh's boundary surface). The file is written to a temporary name beside `path` and
+/// mesh's boundary surface), coordinates and qualities as doubles (text: the shortest form
+/// that reads back exactly). The file is written to a temporary name beside `path` and
 /// renamed into place, so a failed write leaves any existing file untouched.
 /// \throw IoError unknown or unsupported extension for the mesh kind, write failure.
+/// \throw InvalidMesh non-finite coordinates or written property values (nothing is written).
 void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
 
 /// The extensions writeMesh accepts for a mesh kind ("obj", "off", "ply", "om" or "mesh", "ply").

@@ -1,6 +1,7 @@
 #include "pipeline/pipeline.h"
 
 #include "core/error.h"
+#include "core/text.h"
 #include "core/timer.h"
 
 #include <map>
@@ -64,7 +65,7 @@ void Pipeline::check(const Document& doc) const {
 nlohmann::json Pipeline::run(Document& doc) const {
   check(doc);
   nlohmann::json report;
-  report["mesh"] = {{"path", doc.path},
+  report["mesh"] = {{"path", escapeNonUtf8(doc.path)},
                     {"kind", toString(doc.mesh.kind())},
                     {"vertices", doc.mesh.numVertices()},
                     {"elements", doc.mesh.numElements()}};

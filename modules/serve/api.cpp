@@ -1,6 +1,7 @@
 #include "serve/api.h"
 
 #include "core/error.h"
+#include "core/text.h"
 #include "mesh/io.h"
 #include "render/image.h"
 #include "render/render.h"
@@ -14,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -224,7 +226,7 @@ double queryDouble(const ApiRequest& r, const std::string& key, double fallback)
 
 ApiResponse jsonResponse(const json& j) {
   ApiResponse r;
-  r.body = j.dump();
+  r.body = j.dump(-1, ' ', false, json::error_handler_t::replace);
   return r;
 }
 
@@ -233,12 +235,13 @@ ApiResponse jsonResponse(const json& j) {
 ApiResponse errorResponse(int status, const std::string& message) {
   ApiResponse r;
   r.status = status;
-  r.body = json{{"error", message}, {"status", status}}.dump();
+  r.body = json{{"error", message}, {"status", status}}.dump(-1, ' ', false,
+                                                            json::error_handler_t::replace);
   return r;
 }
 
 Api::Api(std::unique_ptr<EditSession> session, std::string meshName, ApiOptions options)
-    : session_(std::move(session)), meshName_(std::move(meshName)), options_(options) {
+    : session_(std::move(session)), meshName_(escapeNonUtf8(meshName)), options_(options) {
   if (!session_) throw InvalidParameter("the API needs an editing session");
   session_->update();
 }
@@ -263,8 +266,14 @@ ApiResponse Api::handle(const ApiRequest& request) {
     return errorResponse(422, e.what());
   } catch (const InvalidMesh& e) {
     return errorResponse(422, e.what());
-  } catch (const std::exception& e) {
-    return errorResponse(500, e.what());
+  } catch (const IoError&) {
+    // One answer whatever the cause: the reply must not tell which paths exist.
+    return errorResponse(422, "a file named in the request cannot be read (the server reads "
+                              "only regular MeshLab picked points files of at most 16 MiB)");
+  } catch (const Error& e) {
+    return errorResponse(422, e.what());
+  } catch (const std::exception&) {
+    return errorResponse(500, "internal error");
   }
 }
 
@@ -440,6 +449,11 @@ ApiResponse Api::edit(const ApiRequest& r) {
   json body;
   const bool needsBody = !(r.method == "DELETE");
   if (needsBody) body = r.method == "PUT" ? parseBody(r.body) : parseObject(r.body);
+  // A handle file may name picked-points files: read them before taking the lock (the rest
+  // mesh never changes), so a slow or refused file delays no other request.
+  std::optional<HandleSet> replacement;
+  if (r.path == "/api/handles" && r.method == "PUT")
+    replacement = parseHandles(body.dump(), session_->restMesh(), "request body", "", false);
 
   ++waiting_;
   std::unique_lock<std::mutex> lock(mutex_);
@@ -482,8 +496,7 @@ ApiResponse Api::edit(const ApiRequest& r) {
       want.handles.clear();
       s.setState(std::move(want));
     } else if (p == "/api/handles" && r.method == "PUT") {
-      HandleSet set = parseHandles(body.dump(), s.restMesh(), "request body");
-      s.setHandles(set);
+      s.setHandles(*replacement);
     } else if (p == "/api/handles") {  // POST: a new handle
       allowOnly(body, {"vertices", "name", "range", "magnitude", "targets"}, "handle");
       if (!body.contains("vertices")) throw RequestError(400, "handle: 'vertices' is missing");
@@ -615,7 +628,7 @@ std::string Api::stateJson(bool coalesced, int created) const {
                 {"reference", statsJson(s.referenceStats())}}}};
   if (coalesced) doc["coalesced"] = true;
   if (created >= 0) doc["created"] = created;
-  return doc.dump();
+  return doc.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 }  // namespace diffreg

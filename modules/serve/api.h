@@ -62,8 +62,11 @@
 // Status codes: 200 success; 400 malformed JSON, a field of the wrong type or an unknown field;
 // 404 unknown endpoint or handle id; 405 method not allowed on an endpoint; 413 body larger than
 // ApiOptions::maxBodyBytes; 422 a value the session rejects (vertex id out of range or in
-// another handle, non-finite or far-away position, parameter out of its range, unknown name);
-// 500 an unexpected internal failure (the session is kept). A state whose weights or
+// another handle, non-finite or far-away position, parameter out of its range, unknown name)
+// or a picked points file named by PUT /api/handles that cannot be read (one message for every
+// cause, read before the session is locked); 500 an unexpected internal failure, without its
+// text (the session is kept). HttpServer adds 403 (foreign Host or Origin) and 415 (a write
+// body that is not application/json) before a request reaches the Api. A state whose weights or
 // deformation cannot be computed (e.g. a component without handles) is accepted: "update"
 // then says "solved": false with the reason, and the previous results stay.
 //

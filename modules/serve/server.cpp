@@ -6,6 +6,8 @@
 
 #include <sys/socket.h>
 
+#include <cctype>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -58,6 +60,21 @@ HttpServer::HttpServer(Api& api, ServerOptions options)
 
   httplib::Server& svr = *server_;
   svr.set_payload_max_length(api_.options().maxBodyBytes);
+  // Slow clients: a connection that sends nothing for a second is closed, idle keep-alive
+  // connections after a second, and enough workers that a few stalled clients block no one.
+  svr.set_read_timeout(1, 0);
+  svr.set_write_timeout(5, 0);
+  svr.set_keep_alive_timeout(1);
+  svr.set_keep_alive_max_count(100);
+  svr.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
+  svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    const std::string refusal = refuse(req);
+    if (refusal.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    const int status = refusal.rfind("415 ", 0) == 0 ? 415 : 403;
+    send(errorResponse(status, refusal.substr(4)), res);
+    res.set_header("Connection", "close");
+    return httplib::Server::HandlerResponse::Handled;
+  });
   // SO_REUSEADDR only: httplib's default SO_REUSEPORT would let a second server bind a port
   // that is in use and share its connections.
   svr.set_socket_options([](socket_t sock) {
@@ -125,6 +142,33 @@ HttpServer::HttpServer(Api& api, ServerOptions options)
 
 HttpServer::~HttpServer() { stop(); }
 
+std::string HttpServer::refuse(const httplib::Request& req) const {
+  const auto lower = [](std::string t) {
+    for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return t;
+  };
+  const std::string port = std::to_string(port_);
+  const std::string host = lower(req.get_header_value("Host"));
+  // DNS rebinding: a foreign name that resolves to 127.0.0.1 still carries its own Host.
+  if (host != "127.0.0.1:" + port && host != "localhost:" + port)
+    return "403 the Host header does not name this server (127.0.0.1:" + port + ")";
+  const bool write = req.method != "GET" && req.method != "HEAD";
+  if (!write) return "";
+  // Browsers send Origin with every write; scripts (curl, tests) usually send none.
+  if (req.has_header("Origin")) {
+    const std::string origin = lower(req.get_header_value("Origin"));
+    if (origin != "http://127.0.0.1:" + port && origin != "http://localhost:" + port)
+      return "403 writes are accepted from this server's own page only";
+  }
+  const std::string length = req.get_header_value("Content-Length");
+  const bool body = std::strtoull(length.c_str(), nullptr, 10) > 0 ||
+                    req.has_header("Transfer-Encoding");
+  const std::string type = lower(req.get_header_value("Content-Type"));
+  if (body && type.rfind("application/json", 0) != 0)
+    return "415 request bodies must be Content-Type: application/json";
+  return "";
+}
+
 int HttpServer::bind(const std::string& host, int port) {
   if (port < 0 || port > 65535)
     throw InvalidParameter("port " + std::to_string(port) + " is outside [0, 65535]");
@@ -136,6 +180,7 @@ int HttpServer::bind(const std::string& host, int port) {
     throw IoError("cannot bind " + host + ":" + std::to_string(port) + " (in use, or not allowed)");
   }
   bound_ = true;
+  port_ = bound;
   return bound;
 }
 

@@ -11,6 +11,7 @@
 
 namespace httplib {
 class Server;
+struct Request;
 }
 
 namespace diffreg {
@@ -44,12 +45,22 @@ class HttpServer {
   /// Stops serving; returns once run() or the background thread has ended.
   void stop();
 
+  /// Worker threads: more than the few connections a page keeps open, so that stalled clients
+  /// (each cut after a second of silence) block no one.
+  static constexpr size_t kWorkers = 32;
+
  private:
+  /// "" when `req` may be answered; else "STATUS message": 403 for a Host that is not this
+  /// server's loopback address and port (DNS rebinding) or a write whose Origin is another
+  /// site's, 415 for a write with a body that is not application/json.
+  std::string refuse(const httplib::Request& req) const;
+
   Api& api_;
   ServerOptions options_;
   std::unique_ptr<httplib::Server> server_;
   std::thread thread_;
   bool bound_ = false;
+  int port_ = 0;
 };
 
 }  // namespace diffreg

@@ -67,16 +67,40 @@ void parseSize(const std::string& command, const std::string& size, int& width, 
     throw UsageError(command + ": --size '" + size + "' is not WxH with 100 <= W, H <= 4000");
 }
 
+std::string canonicalTarget(const std::string& path) {
+  std::error_code ec;
+  const fs::path p = fs::weakly_canonical(fs::absolute(path), ec);
+  return ec ? fs::absolute(path).lexically_normal().string() : p.string();
+}
+
 void checkWritableDir(const std::string& path) {
   fs::path dir = fs::path(path).parent_path();
   if (dir.empty()) dir = ".";
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
     throw IoError("cannot write '" + path + "': directory '" + dir.string() + "' does not exist");
+  if (::access(dir.c_str(), W_OK | X_OK) != 0)
+    throw IoError("cannot write '" + path + "': directory '" + dir.string() + "' is not writable");
+  const fs::file_status st = fs::status(path, ec);
+  if (fs::is_directory(st)) throw IoError("cannot write '" + path + "': it is a directory");
+  if (fs::exists(st) && !fs::is_regular_file(st))
+    throw IoError("cannot write '" + path + "': it exists and is not a regular file");
+}
+
+void checkOutputTarget(const std::string& path, const std::vector<std::string>& extensions) {
+  checkWritableDir(path);
+  if (extensions.empty()) return;
+  std::string ext = fs::path(path).extension().string();
+  if (!ext.empty()) ext = ext.substr(1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (const auto& e : extensions)
+    if (e == ext) return;
+  throw IoError("cannot write '" + path + "': this output is written as " + join(extensions, ", ") +
+                ", not '" + (ext.empty() ? "(no extension)" : "." + ext) + "'");
 }
 
 StagedOutputs::~StagedOutputs() {
-  for (const auto& [tmp, path] : staged_) std::remove(tmp.c_str());
+  for (const Entry& e : staged_) std::remove(e.temporary.c_str());
 }
 
 void ProgressPrinter::operator()(const std::string& filter, int iteration, double energy,
@@ -93,13 +117,15 @@ void ProgressPrinter::operator()(const std::string& filter, int iteration, doubl
 
 std::string StagedOutputs::stage(const std::string& path) {
   const fs::path p(path);
-  for (const auto& [tmp, target] : staged_)
-    if (fs::absolute(target) == fs::absolute(p))
-      throw InvalidParameter("output '" + path + "' is written twice (by -o, --report or a filter)");
+  const std::string canonical = canonicalTarget(path);
+  for (const Entry& e : staged_)
+    if (e.canonical == canonical)
+      throw InvalidParameter("output '" + path + "' is written twice (by -o, --report or a filter" +
+                             (e.target != path ? ", also as '" + e.target + "'" : "") + ")");
   const std::string tmp = (p.parent_path() / ("." + p.stem().string() + ".tmp" +
                                               std::to_string(::getpid()) + p.extension().string()))
                               .string();
-  staged_.emplace_back(tmp, path);
+  staged_.push_back({tmp, path, canonical});
   return tmp;
 }
 
@@ -112,9 +138,43 @@ void StagedOutputs::stageText(const std::string& path, const std::string& text) 
 }
 
 void StagedOutputs::commit() {
-  for (const auto& [tmp, path] : staged_)
-    if (std::rename(tmp.c_str(), path.c_str()) != 0)
-      throw IoError("cannot write '" + path + "': " + std::strerror(errno));
+  // Each existing target is moved aside first; if any rename fails, every target renamed so far
+  // gets its old file (or its absence) back.
+  std::vector<std::pair<std::string, std::string>> done;  // target, backup ("" = was absent)
+  const auto undo = [&done] {
+    for (auto it = done.rbegin(); it != done.rend(); ++it) {
+      if (it->second.empty())
+        std::remove(it->first.c_str());
+      else
+        std::rename(it->second.c_str(), it->first.c_str());
+    }
+  };
+  for (const Entry& e : staged_) {
+    std::string backup;
+    std::error_code ec;
+    const fs::file_status st = fs::symlink_status(e.target, ec);
+    if (fs::is_directory(st)) {  // became one after the checks: never moved aside
+      undo();
+      throw IoError("cannot write '" + e.target + "': it is a directory");
+    }
+    if (fs::exists(st)) {
+      backup = e.temporary + ".old";
+      if (std::rename(e.target.c_str(), backup.c_str()) != 0) {
+        const int err = errno;
+        undo();
+        throw IoError("cannot write '" + e.target + "': " + std::strerror(err));
+      }
+    }
+    if (std::rename(e.temporary.c_str(), e.target.c_str()) != 0) {
+      const int err = errno;
+      if (!backup.empty()) std::rename(backup.c_str(), e.target.c_str());
+      undo();
+      throw IoError("cannot write '" + e.target + "': " + std::strerror(err));
+    }
+    done.emplace_back(e.target, backup);
+  }
+  for (const auto& [target, backup] : done)
+    if (!backup.empty()) std::remove(backup.c_str());
   staged_.clear();
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <boost/program_options.hpp>
+#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <stdexcept>
@@ -11,6 +12,13 @@
 #include <vector>
 
 namespace diffreg {
+
+/// A report as written to --report: indented JSON and a final newline. Strings that are not
+/// UTF-8 (parameters given on the command line) have their bad bytes replaced by U+FFFD
+/// instead of failing the run at the end.
+inline std::string reportText(const nlohmann::json& report) {
+  return report.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
 
 /// A mistake in the command line itself (exit code 2).
 struct UsageError : std::runtime_error {
@@ -37,8 +45,20 @@ std::string fixed(double value, int digits);
 /// \throw UsageError unless both are whole numbers in [100, 4000].
 void parseSize(const std::string& command, const std::string& size, int& width, int& height);
 
-/// \throw IoError unless the directory that would hold `path` exists.
+/// `path` as an absolute path with symbolic links, "." and ".." resolved (as far as it
+/// exists): two spellings of one file give the same string.
+std::string canonicalTarget(const std::string& path);
+
+/// \throw IoError unless the directory that would hold `path` exists and is writable and
+/// `path` is not a directory or another non-regular file.
 void checkWritableDir(const std::string& path);
+
+/// The extensions of a picture output (-o of compare and resolution).
+inline const std::vector<std::string> kPictureExtensions = {"png"};
+
+/// checkWritableDir, and (when `extensions` is not empty) the extension of `path` is one of
+/// them (lower case, without the dot). \throw IoError naming `path`.
+void checkOutputTarget(const std::string& path, const std::vector<std::string>& extensions = {});
 
 /// Files written under temporary names beside their targets (same extension, so writers that
 /// pick a format by it still do), renamed into place together by commit(). Whatever was not
@@ -64,15 +84,20 @@ class StagedOutputs {
   StagedOutputs& operator=(const StagedOutputs&) = delete;
   ~StagedOutputs();
   /// Returns the temporary name to write `path` to.
-  /// \throw InvalidParameter when `path` is already staged (one file written twice).
+  /// \throw InvalidParameter when `path` (under any spelling) is already staged.
   std::string stage(const std::string& path);
   /// Writes `text` to `path`'s temporary. \throw IoError when writing fails.
   void stageText(const std::string& path, const std::string& text);
+  /// Renames every temporary onto its target; when a rename fails, the targets renamed so far
+  /// get back what they held (or are removed when they did not exist).
   /// \throw IoError when a rename fails.
   void commit();
 
  private:
-  std::vector<std::pair<std::string, std::string>> staged_;  // temporary, target
+  struct Entry {
+    std::string temporary, target, canonical;
+  };
+  std::vector<Entry> staged_;
 };
 
 }  // namespace diffreg

@@ -162,8 +162,13 @@ int runCompare(int argc, char** argv) {
   std::vector<std::string> outputs;
   for (const char* key : {"output", "report", "markdown"})
     if (vm.count(key)) {
-      outputs.push_back(vm[key].as<std::string>());
-      checkWritableDir(outputs.back());
+      const std::string path = vm[key].as<std::string>();
+      for (const auto& other : outputs)
+        if (canonicalTarget(other) == canonicalTarget(path))
+          throw UsageError("compare: output '" + path + "' given twice");
+      outputs.push_back(path);
+      checkOutputTarget(path, key == std::string("output") ? kPictureExtensions
+                                                           : std::vector<std::string>{});
     }
 
   const Document doc = Document::load(vm["input"].as<std::string>(), vm["handles"].as<std::string>());
@@ -236,7 +241,7 @@ int runCompare(int argc, char** argv) {
       report["variants"].push_back({{"name", v.name},
                                     {"metrics", v.report["filters"][v.weights.size() + 1]["metrics"]},
                                     {"filters", v.report["filters"]}});
-    staged.stageText(vm["report"].as<std::string>(), report.dump(2) + "\n");
+    staged.stageText(vm["report"].as<std::string>(), reportText(report));
   }
   if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
   staged.commit();

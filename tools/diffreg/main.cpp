@@ -60,6 +60,12 @@ const char* kUsage =
     "is only converted. Nothing is written when anything fails.\n"
     "-s runs the filters of a MeshLab FilterScript (.mlx) first, then any --filter ones.\n";
 
+/// The input of the run, for the out-of-memory message.
+std::string& inputName() {
+  static std::string name;
+  return name;
+}
+
 /// Wraps `text` to `width` columns, each line starting with `indent`.
 std::string wrap(const std::string& text, const std::string& indent, size_t width = 78) {
   std::istringstream words(text);
@@ -107,6 +113,7 @@ int runPipeline(const po::variables_map& vm) {
   if (!vm.count("input")) throw UsageError("missing -i IN (see diffreg --help)");
   if (!vm.count("output")) throw UsageError("missing -o OUT (see diffreg --help)");
   const std::string input = vm["input"].as<std::string>();
+  inputName() = input;
   const auto outputs = vm["output"].as<std::vector<std::string>>();
   const std::string handles = vm.count("handles") ? vm["handles"].as<std::string>() : "";
   const std::string reportPath = vm.count("report") ? vm["report"].as<std::string>() : "";
@@ -123,13 +130,15 @@ int runPipeline(const po::variables_map& vm) {
       pipeline.add(name, values);
     }
   }
-  for (size_t i = 0; i < outputs.size(); ++i) {
-    checkWritableDir(outputs[i]);
-    bool twice = !reportPath.empty() && fs::absolute(outputs[i]) == fs::absolute(reportPath);
-    for (size_t j = 0; j < i; ++j) twice = twice || fs::absolute(outputs[i]) == fs::absolute(outputs[j]);
-    if (twice) throw UsageError("output '" + outputs[i] + "' given twice");
+  // Two spellings of one file (a.ply, ./a.ply, a link to it) are one output.
+  std::vector<std::string> targets = outputs;
+  if (!reportPath.empty()) targets.push_back(reportPath);
+  for (size_t i = 0; i < targets.size(); ++i) {
+    checkWritableDir(targets[i]);
+    for (size_t j = 0; j < i; ++j)
+      if (canonicalTarget(targets[i]) == canonicalTarget(targets[j]))
+        throw UsageError("output '" + targets[i] + "' given twice (also as '" + targets[j] + "')");
   }
-  if (!reportPath.empty()) checkWritableDir(reportPath);
 
   Document doc = Document::load(input, handles);
   for (const auto& output : outputs) checkWritable(output, doc.mesh.kind());
@@ -143,7 +152,7 @@ int runPipeline(const po::variables_map& vm) {
   const nlohmann::json report = pipeline.run(doc);
 
   for (const auto& output : outputs) writeMesh(staged.stage(output), doc.mesh);
-  if (!reportPath.empty()) staged.stageText(reportPath, report.dump(2) + "\n");
+  if (!reportPath.empty()) staged.stageText(reportPath, reportText(report));
   staged.commit();
   info("wrote " + join(outputs, ", ") + (reportPath.empty() ? "" : " and " + reportPath));
   return 0;
@@ -208,6 +217,11 @@ int run(int argc, char** argv) {
   return runPipeline(vm);
 }
 
+std::string workingOn() {
+  return inputName().empty() ? std::string("before reading any input")
+                             : "while working on '" + inputName() + "'";
+}
+
 /// Prints the one error line, with any line breaks in `message` folded into spaces.
 void printError(const std::string& message) {
   std::string line = message;
@@ -228,6 +242,9 @@ int main(int argc, char** argv) {
   } catch (const po::error& e) {
     diffreg::printError(e.what());
     return 2;
+  } catch (const std::bad_alloc&) {
+    diffreg::printError("out of memory (" + diffreg::workingOn() + ")");
+    return 1;
   } catch (const std::exception& e) {
     diffreg::printError(e.what());
     return 1;

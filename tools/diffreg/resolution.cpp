@@ -179,10 +179,11 @@ int runResolution(int argc, char** argv) {
     if (vm.count(key)) {
       const std::string path = vm[key].as<std::string>();
       for (const auto& other : outputs)
-        if (fs::absolute(other) == fs::absolute(path))
+        if (canonicalTarget(other) == canonicalTarget(path))
           throw UsageError("resolution: output '" + path + "' given twice");
       outputs.push_back(path);
-      checkWritableDir(path);
+      checkOutputTarget(path, key == std::string("output") ? kPictureExtensions
+                                                           : std::vector<std::string>{});
     }
 
   const std::string input = vm["input"].as<std::string>();
@@ -317,7 +318,7 @@ int runResolution(int argc, char** argv) {
                           {"probe", c.probe}});
       report["units"][unit] = rows;
     }
-    staged.stageText(vm["report"].as<std::string>(), report.dump(2) + "\n");
+    staged.stageText(vm["report"].as<std::string>(), reportText(report));
   }
   if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
   staged.commit();

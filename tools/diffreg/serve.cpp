@@ -10,11 +10,18 @@
 
 #include <boost/program_options.hpp>
 
+#include <chrono>
+#include <cerrno>
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
+#include <future>
+#include <thread>
+
+#include <unistd.h>
 
 namespace po = boost::program_options;
 
@@ -30,6 +37,31 @@ const char* kServeUsage =
     "drag them, tune the energy, the regularization and the weights, and save the handles, the\n"
     "deformed mesh and a picture. The page's JSON API can be driven by scripts as well.\n"
     "Stops on Ctrl-C (SIGINT) or SIGTERM.\n";
+
+int stopPipe[2] = {-1, -1};
+
+extern "C" void onStopSignal(int) {
+  const char c = 1;
+  const ssize_t ignored = ::write(stopPipe[1], &c, 1);  // async-signal-safe
+  (void)ignored;
+}
+
+void installStopHandler() {
+  if (::pipe(stopPipe) != 0) throw IoError("serve: cannot create a pipe for the stop signal");
+  struct sigaction action {};
+  action.sa_handler = onStopSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
+}
+
+/// Returns once SIGINT or SIGTERM has arrived (now or before).
+void waitForStop() {
+  char c = 0;
+  while (::read(stopPipe[0], &c, 1) < 0 && errno == EINTR) {
+  }
+}
 
 }  // namespace
 
@@ -50,6 +82,10 @@ int runServe(int argc, char** argv) {
   if (port < 0 || port > 65535)
     throw UsageError("serve: --port " + std::to_string(port) + " is outside [0, 65535]");
 
+  // SIGINT and SIGTERM run a handler in whichever thread receives them (some, like BLAS's
+  // workers, exist before main), so none of them kills the process; this thread then stops.
+  installStopHandler();
+
   const std::string input = vm["input"].as<std::string>();
   Mesh mesh = readMesh(input);
   HandleSet handles;
@@ -63,17 +99,23 @@ int runServe(int argc, char** argv) {
   HttpServer server(api, options);
   const int bound = server.bind("127.0.0.1", port);
 
-  // SIGINT and SIGTERM are taken by this thread (sigwait), the server's threads never see them.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   server.start();
   std::cout << "diffreg serve: http://127.0.0.1:" << bound << "/" << std::endl;
-  int received = 0;
-  sigwait(&signals, &received);
-  server.stop();
+  waitForStop();
+  // Stop within a second even when a request is still running (a long solve): after that
+  // the process ends without waiting for it.
+  std::promise<void> stopped;
+  std::future<void> done = stopped.get_future();
+  std::thread stopper([&] {
+    server.stop();
+    stopped.set_value();
+  });
+  if (done.wait_for(std::chrono::milliseconds(900)) != std::future_status::ready) {
+    info("serve: stopped (abandoning the requests still running)");
+    std::cout.flush();
+    std::_Exit(0);
+  }
+  stopper.join();
   info("serve: stopped");
   return 0;
 }

@@ -1,0 +1,53 @@
+#include "core/text.h"
+
+#include <cstdio>
+
+namespace diffreg {
+namespace {
+
+/// Length of the valid UTF-8 sequence starting at s[i], 0 when there is none.
+size_t sequence(const std::string& s, size_t i) {
+  const auto byte = [&](size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char c = byte(i);
+  if (c < 0x80) return 1;
+  size_t n = 0;
+  unsigned min = 0, code = 0;
+  if (c >= 0xc2 && c <= 0xdf)
+    n = 2, min = 0x80, code = c & 0x1f;
+  else if (c >= 0xe0 && c <= 0xef)
+    n = 3, min = 0x800, code = c & 0x0f;
+  else if (c >= 0xf0 && c <= 0xf4)
+    n = 4, min = 0x10000, code = c & 0x07;
+  else
+    return 0;
+  if (i + n > s.size()) return 0;
+  for (size_t k = 1; k < n; ++k) {
+    if ((byte(i + k) & 0xc0) != 0x80) return 0;
+    code = (code << 6) | (byte(i + k) & 0x3f);
+  }
+  if (code < min || code > 0x10ffff || (code >= 0xd800 && code <= 0xdfff)) return 0;
+  return n;
+}
+
+}  // namespace
+
+std::string escapeNonUtf8(const std::string& bytes) {
+  std::string out;
+  out.reserve(bytes.size());
+  for (size_t i = 0; i < bytes.size();) {
+    const size_t n = sequence(bytes, i);
+    if (n == 0) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", static_cast<unsigned char>(bytes[i]));
+      out += buf;
+      ++i;
+      continue;
+    }
+    if (bytes[i] == '\\' && i + 1 < bytes.size() && bytes[i + 1] == 'x') out += '\\';
+    out.append(bytes, i, n);
+    i += n;
+  }
+  return out;
+}
+
+}  // namespace diffreg

@@ -1,0 +1,1002 @@
+#include "mesh/parse.h"
+
+#include "core/error.h"
+#include "core/log.h"
+#include "mesh/polygon.h"
+
+#include <OpenMesh/Core/IO/IOManager.hh>
+#include <OpenMesh/Core/IO/importer/ImporterT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <optional>
+#include <sstream>
+
+namespace diffreg {
+namespace {
+
+std::string quote(std::string_view s) {
+  if (s.size() > 40) return "'" + std::string(s.substr(0, 40)) + "...'";
+  return "'" + std::string(s) + "'";
+}
+
+std::string lower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+enum class Parsed { Ok, Bad, Overflow };
+
+/// Parses all of `s` as a double; values beyond the range of double are Overflow, values
+/// below its smallest magnitude read as 0 (or a subnormal).
+Parsed parseDouble(std::string_view s, double& v) {
+  if (!s.empty() && s[0] == '+') s.remove_prefix(1);
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (r.ptr != s.data() + s.size() || s.empty()) return Parsed::Bad;
+  if (r.ec == std::errc::result_out_of_range) {
+    v = std::strtod(std::string(s).c_str(), nullptr);
+    return std::isinf(v) ? Parsed::Overflow : Parsed::Ok;
+  }
+  return r.ec == std::errc() ? Parsed::Ok : Parsed::Bad;
+}
+
+std::optional<long long> parseInt(std::string_view s) {
+  if (!s.empty() && s[0] == '+') s.remove_prefix(1);
+  long long v = 0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (r.ec != std::errc() || r.ptr != s.data() + s.size()) return std::nullopt;
+  return v;
+}
+
+bool isNumber(std::string_view s) {
+  double v = 0.0;
+  return parseDouble(s, v) != Parsed::Bad;
+}
+
+/// A coordinate of vertex `vertex` (as numbered in messages) at `where`.
+double coordinate(std::string_view token, const std::string& where, long long vertex) {
+  double v = 0.0;
+  const Parsed p = parseDouble(token, v);
+  const std::string name = "vertex " + std::to_string(vertex);
+  if (p == Parsed::Bad) {
+    throw InvalidMesh(where + ": expected a coordinate of " + name + ", got " + quote(token));
+  }
+  if (p == Parsed::Overflow) {
+    throw InvalidMesh(where + ": " + name + " has a non-finite coordinate (" + quote(token) +
+                      " is beyond the range of double)");
+  }
+  if (!std::isfinite(v)) throw InvalidMesh(where + ": " + name + " has a non-finite coordinate");
+  return v;
+}
+
+/// Lines and whitespace-separated tokens of a text file with line numbers ('#' starts a
+/// comment when `comments`). Nothing is copied: tokens point into the text.
+class Scanner {
+ public:
+  Scanner(std::string_view text, std::string source, bool comments = true)
+      : text_(text), source_(std::move(source)), comments_(comments) {}
+
+  /// The tokens of the next line that has any; false at the end of the text.
+  bool line(std::vector<std::string_view>& tokens) {
+    tokens.clear();
+    while (tokens.empty() && pos_ < text_.size()) {
+      size_t end = text_.find('\n', pos_);
+      if (end == std::string_view::npos) end = text_.size();
+      std::string_view l = text_.substr(pos_, end - pos_);
+      line_ = nextLine_++;
+      pos_ = end + 1;
+      if (comments_) l = l.substr(0, l.find('#'));
+      split(l, tokens);
+    }
+    return !tokens.empty();
+  }
+
+  /// The next token (across lines); false at the end of the text.
+  bool token(std::string_view& out) {
+    for (;;) {
+      while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) {
+        if (text_[pos_] == '\n') ++nextLine_;
+        ++pos_;
+      }
+      if (pos_ >= text_.size()) return false;
+      if (comments_ && text_[pos_] == '#') {
+        const size_t end = text_.find('\n', pos_);
+        pos_ = end == std::string_view::npos ? text_.size() : end;
+        continue;
+      }
+      const size_t start = pos_;
+      while (pos_ < text_.size() && !std::isspace(static_cast<unsigned char>(text_[pos_])) &&
+             !(comments_ && text_[pos_] == '#'))
+        ++pos_;
+      out = text_.substr(start, pos_ - start);
+      line_ = nextLine_;
+      return true;
+    }
+  }
+
+  /// Bytes not read yet.
+  size_t remaining() const { return pos_ < text_.size() ? text_.size() - pos_ : 0; }
+  size_t position() const { return std::min(pos_, text_.size()); }
+  /// "source:line" of the last line or token returned.
+  std::string where() const { return source_ + ":" + std::to_string(line_); }
+  int lineNumber() const { return line_; }
+  const std::string& source() const { return source_; }
+
+  static void split(std::string_view l, std::vector<std::string_view>& tokens) {
+    size_t i = 0;
+    while (i < l.size()) {
+      while (i < l.size() && std::isspace(static_cast<unsigned char>(l[i]))) ++i;
+      const size_t start = i;
+      while (i < l.size() && !std::isspace(static_cast<unsigned char>(l[i]))) ++i;
+      if (i > start) tokens.push_back(l.substr(start, i - start));
+    }
+  }
+
+ private:
+  std::string_view text_;
+  std::string source_;
+  bool comments_;
+  size_t pos_ = 0;
+  int line_ = 0, nextLine_ = 1;
+};
+
+/// Throws unless `count` elements of at least `bytesEach` bytes fit into `remaining` bytes.
+void checkCount(const std::string& where, const std::string& what, long long count,
+                std::uint64_t bytesEach, std::uint64_t remaining) {
+  if (count < 0)
+    throw InvalidMesh(where + ": negative " + what + " count " + std::to_string(count));
+  if (static_cast<std::uint64_t>(count) > remaining / std::max<std::uint64_t>(bytesEach, 1)) {
+    throw InvalidMesh(where + ": the file says " + std::to_string(count) + " " + what +
+                      ", more than its remaining " + std::to_string(remaining) +
+                      " bytes can hold (truncated or corrupt)");
+  }
+}
+
+long long count(const std::string& where, std::string_view token, const std::string& what) {
+  const auto n = parseInt(token);
+  if (!n) throw InvalidMesh(where + ": expected the " + what + " count, got " + quote(token));
+  return *n;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// OBJ
+
+RawMesh parseObj(std::string_view text, const std::string& source) {
+  Scanner s(text, source);
+  RawMesh raw;
+  raw.base = 1;
+  std::vector<std::string_view> t;
+  while (s.line(t)) {
+    if (t[0] == "v") {
+      const long long id = static_cast<long long>(raw.points.size()) + 1;
+      if (t.size() < 4)
+        throw InvalidMesh(s.where() + ": vertex " + std::to_string(id) + " needs 3 coordinates");
+      Eigen::Vector3d p;
+      for (int c = 0; c < 3; ++c) p[c] = coordinate(t[1 + c], s.where(), id);
+      raw.points.push_back(p);
+    } else if (t[0] == "f") {
+      RawFace face{s.lineNumber(), {}};
+      const long long n = static_cast<long long>(raw.points.size());
+      for (size_t i = 1; i < t.size(); ++i) {
+        const auto id = parseInt(t[i].substr(0, t[i].find('/')));
+        if (!id || *id == 0 || *id < -n) {
+          throw InvalidMesh(s.where() + ": face " + std::to_string(raw.faces.size() + 1) +
+                            " has a bad vertex reference " + quote(t[i]));
+        }
+        face.ids.push_back(*id > 0 ? *id - 1 : n + *id);
+      }
+      raw.faces.push_back(std::move(face));
+    }
+  }
+  return raw;
+}
+
+// ---------------------------------------------------------------------------------------
+// OFF
+
+namespace {
+
+/// Reads big-endian 32-bit numbers (binary OFF) with bounds checks.
+class BigEndian {
+ public:
+  BigEndian(std::string_view data, std::string source) : d_(data), source_(std::move(source)) {}
+  std::uint32_t u32(const std::string& what) {
+    if (d_.size() - pos_ < 4 || pos_ > d_.size()) {
+      throw InvalidMesh(source_ + ": the file ends early, expected " + what);
+    }
+    std::uint32_t v = 0;
+    for (int i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(d_[pos_ + i]);
+    pos_ += 4;
+    return v;
+  }
+  std::int32_t i32(const std::string& what) { return static_cast<std::int32_t>(u32(what)); }
+  float f32(const std::string& what) {
+    const std::uint32_t v = u32(what);
+    float f;
+    std::memcpy(&f, &v, 4);
+    return f;
+  }
+  std::uint64_t remaining() const { return d_.size() - pos_; }
+
+ private:
+  std::string_view d_;
+  std::string source_;
+  size_t pos_ = 0;
+};
+
+RawMesh parseBinaryOff(std::string_view data, const std::string& source) {
+  BigEndian in(data, source);
+  RawMesh raw;
+  const long long nv = in.i32("the vertex count"), nf = in.i32("the face count");
+  in.i32("the edge count");
+  checkCount(source, "vertices", nv, 12, in.remaining());
+  checkCount(source, "faces", nf, 4, in.remaining() - 12 * static_cast<std::uint64_t>(nv));
+  for (long long i = 0; i < nv; ++i) {
+    Eigen::Vector3d p;
+    for (int c = 0; c < 3; ++c) p[c] = in.f32("a coordinate of vertex " + std::to_string(i));
+    if (!p.allFinite()) {
+      throw InvalidMesh(source + ": vertex " + std::to_string(i) + " has a non-finite coordinate");
+    }
+    raw.points.push_back(p);
+  }
+  for (long long k = 0; k < nf; ++k) {
+    const std::string what = "face " + std::to_string(k);
+    const long long n = in.i32("the vertex count of " + what);
+    checkCount(source + ": " + what, "vertices", n, 4, in.remaining());
+    RawFace face;
+    for (long long j = 0; j < n; ++j) face.ids.push_back(in.i32("a vertex index of " + what));
+    const long long colors = in.i32("the colour count of " + what);
+    if (colors < 0 || colors > 4) {
+      throw InvalidMesh(source + ": " + what + " has a bad colour count " + std::to_string(colors));
+    }
+    for (long long c = 0; c < colors; ++c) in.f32("a colour of " + what);
+    raw.faces.push_back(std::move(face));
+  }
+  return raw;
+}
+
+}  // namespace
+
+RawMesh parseOff(std::string_view text, const std::string& source) {
+  Scanner s(text, source);
+  std::vector<std::string_view> t;
+  if (!s.line(t)) throw InvalidMesh(source + ": empty file");
+  const std::string_view head = t[0];
+  if (head.size() < 3 || head.substr(head.size() - 3) != "OFF") {
+    throw InvalidMesh(s.where() + ": not an OFF file (no OFF header)");
+  }
+  const std::string_view prefix = head.substr(0, head.size() - 3);
+  if (prefix.find('4') != std::string_view::npos || prefix.find('n') != std::string_view::npos) {
+    throw InvalidMesh(s.where() + ": only 3D OFF files are supported (header " + quote(head) + ")");
+  }
+  if (t.size() > 1 && t[1] == "BINARY") {
+    // The binary data starts after the header line.
+    return parseBinaryOff(text.substr(s.position()), source);
+  }
+  std::vector<std::string_view> counts(t.begin() + 1, t.end());
+  if (counts.empty() && s.line(t)) counts = t;
+  if (counts.size() < 2) {
+    throw InvalidMesh(s.where() + ": expected the vertex and face counts after the OFF header");
+  }
+  const long long nv = count(s.where(), counts[0], "vertex");
+  const long long nf = count(s.where(), counts[1], "face");
+  checkCount(s.where(), "vertices", nv, 2, s.remaining());
+  checkCount(s.where(), "faces", nf, 2, s.remaining() - 2 * static_cast<std::uint64_t>(nv));
+  RawMesh raw;
+  for (long long i = 0; i < nv; ++i) {
+    if (!s.line(t)) {
+      throw InvalidMesh(source + ": the file ends after " + std::to_string(i) + " of " +
+                        std::to_string(nv) + " vertices");
+    }
+    if (t.size() < 3)
+      throw InvalidMesh(s.where() + ": vertex " + std::to_string(i) + " needs 3 coordinates");
+    Eigen::Vector3d p;
+    for (int c = 0; c < 3; ++c) p[c] = coordinate(t[c], s.where(), i);
+    raw.points.push_back(p);
+  }
+  for (long long k = 0; k < nf; ++k) {
+    if (!s.line(t)) {
+      throw InvalidMesh(source + ": the file ends after " + std::to_string(k) + " of " +
+                        std::to_string(nf) + " faces");
+    }
+    const auto size = parseInt(t[0]);
+    if (!size || *size < 0 || static_cast<long long>(t.size()) < 1 + *size) {
+      throw InvalidMesh(s.where() + ": face " + std::to_string(k) +
+                        ": bad vertex count or too few indices");
+    }
+    RawFace face{s.lineNumber(), {}};
+    for (long long j = 0; j < *size; ++j) {
+      const auto id = parseInt(t[1 + j]);
+      if (!id) {
+        throw InvalidMesh(s.where() + ": face " + std::to_string(k) +
+                          ": expected a vertex index, got " + quote(t[1 + j]));
+      }
+      face.ids.push_back(*id);
+    }
+    raw.faces.push_back(std::move(face));
+  }
+  return raw;
+}
+
+// ---------------------------------------------------------------------------------------
+// PLY
+
+namespace {
+
+enum class PlyFormat { Ascii, Little, Big };
+
+struct PlyProperty {
+  std::string name;
+  int size = 0;          ///< bytes of the (item) type
+  bool isFloat = false;  ///< float or double
+  bool isSigned = true;
+  int countSize = 0;  ///< list: bytes of the count type (0: not a list)
+};
+
+struct PlyElement {
+  std::string name;
+  long long count = 0;
+  std::vector<PlyProperty> props;
+  int line = 0;
+  /// The fewest bytes one element takes (binary: scalar sizes; ASCII: a digit and a space each).
+  std::uint64_t minBytes(PlyFormat format) const {
+    std::uint64_t b = 0;
+    for (const auto& p : props)
+      b += format == PlyFormat::Ascii ? 2 : (p.countSize ? p.countSize : p.size);
+    return std::max<std::uint64_t>(b, 1);
+  }
+};
+
+bool plyType(std::string_view t, PlyProperty& p) {
+  static const struct {
+    const char* a;
+    const char* b;
+    int size;
+    bool isFloat, isSigned;
+  } types[] = {{"char", "int8", 1, false, true},    {"uchar", "uint8", 1, false, false},
+               {"short", "int16", 2, false, true},  {"ushort", "uint16", 2, false, false},
+               {"int", "int32", 4, false, true},    {"uint", "uint32", 4, false, false},
+               {"float", "float32", 4, true, true}, {"double", "float64", 8, true, true}};
+  for (const auto& e : types) {
+    if (t == e.a || t == e.b) {
+      p.size = e.size;
+      p.isFloat = e.isFloat;
+      p.isSigned = e.isSigned;
+      return true;
+    }
+  }
+  return false;
+}
+
+/// Reads binary PLY values with bounds checks.
+class BinaryReader {
+ public:
+  BinaryReader(std::string_view data, bool big, std::string source)
+      : d_(data), big_(big), source_(std::move(source)) {}
+  /// One value of `size` bytes, as double.
+  double value(int size, bool isFloat, bool isSigned, const std::string& what) {
+    if (d_.size() - pos_ < static_cast<size_t>(size)) {
+      throw InvalidMesh(source_ + ": the file ends early, in " + what);
+    }
+    unsigned char b[8];
+    std::memcpy(b, d_.data() + pos_, size);
+    pos_ += size;
+    if (big_) std::reverse(b, b + size);  // to little-endian (x86 hosts)
+    if (isFloat && size == 4) {
+      float f;
+      std::memcpy(&f, b, 4);
+      return f;
+    }
+    if (isFloat) {
+      double v;
+      std::memcpy(&v, b, 8);
+      return v;
+    }
+    std::uint64_t u = 0;
+    for (int i = size - 1; i >= 0; --i) u = (u << 8) | b[i];
+    if (isSigned && size < 8 && (u >> (8 * size - 1)) & 1) {
+      return static_cast<double>(static_cast<std::int64_t>(u) - (std::int64_t(1) << (8 * size)));
+    }
+    return static_cast<double>(u);
+  }
+  std::uint64_t remaining() const { return d_.size() - pos_; }
+
+ private:
+  std::string_view d_;
+  bool big_;
+  std::string source_;
+  size_t pos_ = 0;
+};
+
+/// The header: format, elements and the offset of the data.
+struct PlyHeader {
+  PlyFormat format = PlyFormat::Ascii;
+  std::vector<PlyElement> elements;
+  size_t dataStart = 0;
+  int dataLine = 0;
+};
+
+PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
+  PlyHeader h;
+  size_t pos = 0;
+  int line = 0;
+  bool haveFormat = false;
+  std::vector<std::string_view> t;
+  for (;;) {
+    if (pos >= text.size()) throw InvalidMesh(source + ": the PLY header has no end_header");
+    size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view l = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line;
+    const std::string where = source + ":" + std::to_string(line);
+    t.clear();
+    Scanner::split(l, t);
+    if (line == 1) {
+      if (t.size() != 1 || t[0] != "ply") throw InvalidMesh(where + ": not a PLY file (no 'ply')");
+      continue;
+    }
+    if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
+    if (t[0] == "end_header") break;
+    if (t[0] == "format" && t.size() >= 2) {
+      haveFormat = true;
+      if (t[1] == "ascii")
+        h.format = PlyFormat::Ascii;
+      else if (t[1] == "binary_little_endian")
+        h.format = PlyFormat::Little;
+      else if (t[1] == "binary_big_endian")
+        h.format = PlyFormat::Big;
+      else
+        throw InvalidMesh(where + ": unknown PLY format " + quote(t[1]));
+    } else if (t[0] == "element" && t.size() == 3) {
+      PlyElement e;
+      e.name = std::string(t[1]);
+      e.count = count(where, t[2], "element");
+      if (e.count < 0) throw InvalidMesh(where + ": negative element count");
+      e.line = line;
+      h.elements.push_back(std::move(e));
+    } else if (t[0] == "property" && !h.elements.empty()) {
+      PlyProperty p;
+      bool ok = false;
+      if (t.size() == 5 && t[1] == "list") {
+        PlyProperty c;
+        ok = plyType(t[2], c) && !c.isFloat && plyType(t[3], p) && !p.isFloat;
+        p.countSize = c.size;
+        p.name = std::string(t[4]);
+      } else if (t.size() == 3) {
+        ok = plyType(t[1], p);
+        p.name = std::string(t[2]);
+      }
+      if (!ok) throw InvalidMesh(where + ": bad PLY property line " + quote(l));
+      h.elements.back().props.push_back(p);
+    } else {
+      throw InvalidMesh(where + ": unexpected PLY header line " + quote(l));
+    }
+  }
+  if (!haveFormat) throw InvalidMesh(source + ": the PLY header has no format line");
+  h.dataStart = std::min(pos, text.size());
+  h.dataLine = line + 1;
+  return h;
+}
+
+/// Index of the property named one of `names` in `e`, -1 when none.
+int findProperty(const PlyElement& e, std::initializer_list<const char*> names) {
+  for (size_t i = 0; i < e.props.size(); ++i)
+    for (const char* n : names)
+      if (e.props[i].name == n) return static_cast<int>(i);
+  return -1;
+}
+
+/// The vertex index `v` (read as double) as an id; out-of-range values stay out of range.
+long long plyIndex(double v) {
+  if (!(v >= -1e15 && v <= 1e15)) return -1;
+  return static_cast<long long>(v);
+}
+
+}  // namespace
+
+namespace {
+
+/// The values of a PLY body, element by element: ASCII (one line per element) or binary.
+class PlyValues {
+ public:
+  PlyValues(std::string_view text, const PlyHeader& h, const std::string& source)
+      : ascii_(h.format == PlyFormat::Ascii),
+        firstLine_(h.dataLine),
+        source_(source),
+        lines_(text.substr(h.dataStart), source, false),
+        bin_(text.substr(h.dataStart), h.format == PlyFormat::Big, source) {}
+
+  /// Starts element `k` of `e`. \throw InvalidMesh when an ASCII body has no line left.
+  void start(const PlyElement& e, long long k) {
+    what_ = e.name + " " + std::to_string(k);
+    token_ = 0;
+    if (!ascii_) return;
+    if (!lines_.line(tokens_)) {
+      throw InvalidMesh(source_ + ": the file ends after " + std::to_string(k) + " of " +
+                        std::to_string(e.count) + " '" + e.name + "' elements");
+    }
+  }
+  /// The file's line of the current element (0 for binary).
+  int line() const { return ascii_ ? firstLine_ - 1 + lines_.lineNumber() : 0; }
+  std::string where() const {
+    return source_ + (ascii_ ? ":" + std::to_string(line()) : "") + ": " + what_;
+  }
+
+  double next(int size, bool isFloat, bool isSigned) {
+    if (!ascii_) return bin_.value(size, isFloat, isSigned, what_);
+    if (token_ >= tokens_.size()) throw InvalidMesh(where() + " has too few values");
+    const std::string_view tok = tokens_[token_++];
+    double v = 0.0;
+    const Parsed p = parseDouble(tok, v);
+    if (p == Parsed::Bad) throw InvalidMesh(where() + ": expected a number, got " + quote(tok));
+    if (p == Parsed::Overflow) {
+      throw InvalidMesh(where() + ": " + quote(tok) + " is beyond the range of double");
+    }
+    return v;
+  }
+
+  /// The length of list `prop`: at most one item per token (ASCII) or per item size (binary)
+  /// left, compared as doubles since an ASCII length may be any number.
+  long long listLength(const PlyProperty& prop) {
+    const double n = next(prop.countSize, false, false);
+    const double most = ascii_ ? static_cast<double>(tokens_.size())
+                               : static_cast<double>(bin_.remaining() / prop.size + 1);
+    if (!(n >= 0 && n <= most && n == std::floor(n))) {
+      throw InvalidMesh(where() + " has a bad list length " +
+                        quote(ascii_ ? tokens_[token_ - 1] : std::string_view("(binary)")));
+    }
+    return static_cast<long long>(n);
+  }
+
+ private:
+  bool ascii_;
+  int firstLine_;
+  std::string source_;
+  Scanner lines_;
+  BinaryReader bin_;
+  std::vector<std::string_view> tokens_;
+  size_t token_ = 0;
+  std::string what_;
+};
+
+/// Reads the `e.count` elements of `e`; vertices and faces go to `raw`, others are skipped.
+void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& source, RawMesh& raw) {
+  const bool vertex = e.name == "vertex", face = e.name == "face";
+  const int xyz[3] = {findProperty(e, {"x"}), findProperty(e, {"y"}), findProperty(e, {"z"})};
+  const int ids = findProperty(e, {"vertex_indices", "vertex_index"});
+  const std::string where = source + ":" + std::to_string(e.line);
+  if (vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
+    throw InvalidMesh(where + ": the vertex element has no x, y and z");
+  if (face && (ids < 0 || !e.props[ids].countSize))
+    throw InvalidMesh(where + ": the face element has no vertex_indices list");
+  for (long long k = 0; k < e.count; ++k) {
+    in.start(e, k);
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    RawFace f{in.line(), {}};
+    for (size_t i = 0; i < e.props.size(); ++i) {
+      const PlyProperty& prop = e.props[i];
+      const bool mine = face && static_cast<int>(i) == ids;
+      if (prop.countSize) {
+        const long long n = in.listLength(prop);
+        for (long long j = 0; j < n; ++j) {
+          const double id = in.next(prop.size, prop.isFloat, prop.isSigned);
+          if (mine) f.ids.push_back(plyIndex(id));
+        }
+        continue;
+      }
+      const double v = in.next(prop.size, prop.isFloat, prop.isSigned);
+      for (int c = 0; c < 3; ++c)
+        if (vertex && static_cast<int>(i) == xyz[c]) p[c] = v;
+    }
+    if (vertex) {
+      if (!p.allFinite()) throw InvalidMesh(in.where() + " has a non-finite coordinate");
+      raw.points.push_back(p);
+    }
+    if (face) raw.faces.push_back(std::move(f));
+  }
+}
+
+}  // namespace
+
+RawMesh parsePly(std::string_view text, const std::string& source) {
+  const PlyHeader h = parsePlyHeader(text, source);
+  std::uint64_t need = 0;
+  const std::uint64_t have = text.size() - h.dataStart;
+  for (const PlyElement& e : h.elements) {
+    checkCount(source + ":" + std::to_string(e.line), "'" + e.name + "' elements", e.count,
+               e.minBytes(h.format), have - std::min(need, have));
+    need += static_cast<std::uint64_t>(e.count) * e.minBytes(h.format);
+  }
+  RawMesh raw;
+  PlyValues values(text, h, source);
+  for (const PlyElement& e : h.elements) readPlyElement(values, e, source, raw);
+  return raw;
+}
+
+// ---------------------------------------------------------------------------------------
+// Medit .mesh
+
+namespace {
+
+/// Tokens of a Medit file with what each was expected to be, for the messages.
+class MeditTokens {
+ public:
+  MeditTokens(std::string_view text, const std::string& source) : s_(text, source) {}
+  bool atEnd() {
+    fill();
+    return !have_;
+  }
+  std::string_view peek(const std::string& what) {
+    fill();
+    if (!have_) throw InvalidMesh(s_.source() + ": unexpected end of file, expected " + what);
+    return tok_;
+  }
+  std::string_view next(const std::string& what) {
+    const std::string_view t = peek(what);
+    have_ = false;
+    return t;
+  }
+  double number(const std::string& what) {
+    const std::string_view t = next(what);
+    double v = 0.0;
+    const Parsed p = parseDouble(t, v);
+    if (p == Parsed::Bad) throw InvalidMesh(where() + ": expected " + what + ", got " + quote(t));
+    if (p == Parsed::Overflow) {
+      throw InvalidMesh(where() + ": " + what + " " + quote(t) + " is beyond the range of double");
+    }
+    return v;
+  }
+  long long integer(const std::string& what) {
+    const std::string_view t = next(what);
+    const auto v = parseInt(t);
+    if (!v) throw InvalidMesh(where() + ": expected " + what + " (an integer), got " + quote(t));
+    return *v;
+  }
+  std::string where() const { return s_.where(); }
+  int line() const { return s_.lineNumber(); }
+  std::uint64_t remaining() const { return s_.remaining(); }
+
+ private:
+  void fill() {
+    if (!have_ && !ended_) {
+      have_ = s_.token(tok_);
+      ended_ = !have_;
+    }
+  }
+  Scanner s_;
+  std::string_view tok_;
+  bool have_ = false, ended_ = false;
+};
+
+void readMeditVertices(MeditTokens& f, TetMesh& tet) {
+  const long long n = f.integer("the number of vertices");
+  checkCount(f.where(), "vertices", n, 2, f.remaining());
+  for (long long i = 0; i < n; ++i) {
+    const std::string what = "a coordinate of vertex " + std::to_string(i + 1);
+    Eigen::Vector3d p;
+    for (int c = 0; c < 3; ++c) p[c] = f.number(what);
+    const std::string where = f.where();
+    f.number("the reference label of vertex " + std::to_string(i + 1));
+    if (!p.allFinite()) {
+      throw InvalidMesh(where + ": vertex " + std::to_string(i + 1) +
+                        " has a non-finite coordinate");
+    }
+    tet.points.push_back(p);
+  }
+}
+
+void readMeditTets(MeditTokens& f, TetMesh& tet, std::vector<int>& lines) {
+  const long long m = f.integer("the number of tetrahedra");
+  checkCount(f.where(), "tetrahedra", m, 2, f.remaining());
+  for (long long k = 0; k < m; ++k) {
+    const std::string what = "a vertex index of tet " + std::to_string(k + 1);
+    std::array<int, 4> t{};
+    int line = 0;
+    for (int j = 0; j < 4; ++j) {
+      const long long v = f.integer(what);
+      if (j == 0) line = f.line();
+      t[j] = static_cast<int>(std::clamp(v, -1LL, 2000000000LL)) - 1;
+    }
+    f.number("the reference label of tet " + std::to_string(k + 1));
+    tet.tets.push_back(t);
+    lines.push_back(line);
+  }
+}
+
+}  // namespace
+
+TetMesh parseMedit(std::string_view text, const std::string& source) {
+  MeditTokens f(text, source);
+  TetMesh tet;
+  std::vector<int> tetLines;
+  bool haveVertices = false, haveTets = false;
+  while (!f.atEnd()) {
+    const std::string_view kwTok = f.next("a keyword");
+    const std::string kw = lower(kwTok);
+    if (isNumber(kwTok)) {
+      throw InvalidMesh(f.where() + ": expected a keyword, got " + quote(kwTok) +
+                        " (too many entries in a block?)");
+    }
+    if (kw == "end") break;
+    if (kw == "meshversionformatted") {
+      f.integer("a version number");
+    } else if (kw == "dimension") {
+      const long long d = f.integer("the dimension");
+      if (d != 3) {
+        throw InvalidMesh(f.where() + ": only 3D Medit meshes are supported (Dimension " +
+                          std::to_string(d) + ")");
+      }
+    } else if (kw == "vertices") {
+      if (haveVertices) throw InvalidMesh(f.where() + ": second Vertices block");
+      haveVertices = true;
+      readMeditVertices(f, tet);
+    } else if (kw == "tetrahedra") {
+      if (haveTets) throw InvalidMesh(f.where() + ": second Tetrahedra block");
+      haveTets = true;
+      readMeditTets(f, tet, tetLines);
+    } else {
+      // Any other block (Triangles, Edges, Corners, Normals, ...): a count and numbers.
+      while (!f.atEnd() && isNumber(f.peek(""))) f.next("");
+    }
+  }
+  if (!haveVertices) throw InvalidMesh(source + ": no Vertices block");
+  if (tet.tets.empty()) {
+    throw InvalidMesh(source + ": no tetrahedra (only the Tetrahedra block is read)");
+  }
+  const int n = static_cast<int>(tet.points.size());
+  for (size_t k = 0; k < tet.tets.size(); ++k) {
+    for (int v : tet.tets[k]) {
+      if (v < 0 || v >= n) {
+        throw InvalidMesh(source + ":" + std::to_string(tetLines[k]) + ": tet " +
+                          std::to_string(k + 1) + " has vertex index " + std::to_string(v + 1) +
+                          " out of range 1.." + std::to_string(n));
+      }
+    }
+  }
+  return tet;
+}
+
+// ---------------------------------------------------------------------------------------
+// TetGen .node / .ele
+
+namespace {
+
+int readTetgenNodes(std::string_view text, const std::string& source, TetMesh& tet) {
+  Scanner f(text, source);
+  std::vector<std::string_view> l;
+  if (!f.line(l)) throw InvalidMesh(source + ": empty file");
+  const long long n = count(f.where(), l[0], "point");
+  const auto dim = l.size() > 1 ? parseInt(l[1]) : std::optional<long long>(3);
+  if (!dim || *dim != 3) throw InvalidMesh(f.where() + ": only 3D TetGen meshes are supported");
+  checkCount(f.where(), "points", n, 2, f.remaining());
+  int firstIndex = 0;
+  for (long long i = 0; i < n; ++i) {
+    if (!f.line(l)) {
+      throw InvalidMesh(source + ": expected " + std::to_string(n) + " points, found " +
+                        std::to_string(i));
+    }
+    const auto id = parseInt(l[0]);
+    if (i == 0 && id) firstIndex = static_cast<int>(*id);
+    if (!id || *id != firstIndex + i || (firstIndex != 0 && firstIndex != 1)) {
+      throw InvalidMesh(f.where() + ": expected point index " +
+                        std::to_string(i == 0 ? 0 : firstIndex + i) + ", got " + quote(l[0]));
+    }
+    if (l.size() < 4) throw InvalidMesh(f.where() + ": point needs 3 coordinates");
+    Eigen::Vector3d p;
+    for (int c = 0; c < 3; ++c) p[c] = coordinate(l[c + 1], f.where(), *id);
+    tet.points.push_back(p);
+  }
+  return firstIndex;
+}
+
+void readTetgenTets(std::string_view text, const std::string& source, int firstIndex,
+                    TetMesh& tet) {
+  Scanner f(text, source);
+  std::vector<std::string_view> l;
+  if (!f.line(l)) throw InvalidMesh(source + ": empty file");
+  const long long m = count(f.where(), l[0], "tet");
+  if (m == 0) throw InvalidMesh(source + ": no tetrahedra");
+  checkCount(f.where(), "tets", m, 2, f.remaining());
+  const long long n = static_cast<long long>(tet.points.size());
+  for (long long k = 0; k < m; ++k) {
+    if (!f.line(l)) {
+      throw InvalidMesh(source + ": expected " + std::to_string(m) + " tets, found " +
+                        std::to_string(k));
+    }
+    if (l.size() < 5) throw InvalidMesh(f.where() + ": tet needs 4 vertex indices");
+    std::array<int, 4> t{};
+    for (int j = 0; j < 4; ++j) {
+      const auto v = parseInt(l[j + 1]);
+      if (!v || *v < firstIndex || *v >= firstIndex + n) {
+        throw InvalidMesh(f.where() + ": tet " + std::string(l[0]) + " has vertex index " +
+                          quote(l[j + 1]) + " out of range " + std::to_string(firstIndex) + ".." +
+                          std::to_string(firstIndex + n - 1));
+      }
+      t[j] = static_cast<int>(*v - firstIndex);
+    }
+    tet.tets.push_back(t);
+  }
+}
+
+}  // namespace
+
+TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::string_view ele,
+                    const std::string& eleSource) {
+  TetMesh tet;
+  const int firstIndex = readTetgenNodes(node, nodeSource, tet);
+  readTetgenTets(ele, eleSource, firstIndex, tet);
+  return tet;
+}
+
+// ---------------------------------------------------------------------------------------
+// Triangle meshes from polygons
+
+namespace {
+
+/// An OpenMesh importer that counts the vertices OpenMesh duplicates to split off faces it
+/// cannot add (non-manifold).
+class SplittingImporter : public OpenMesh::IO::ImporterT<TriMesh> {
+ public:
+  using Base = OpenMesh::IO::ImporterT<TriMesh>;
+  using Base::add_face;
+  explicit SplittingImporter(TriMesh& mesh) : Base(mesh), mesh_(mesh) {}
+
+  OpenMesh::FaceHandle add_face(const VHandles& indices) override {
+    const size_t before = mesh_.n_vertices();
+    const auto fh = Base::add_face(indices);
+    if (mesh_.n_vertices() > before) {
+      duplicated += static_cast<int>(mesh_.n_vertices() - before);
+      ++splitFaces;
+    }
+    return fh;
+  }
+
+  int duplicated = 0;
+  int splitFaces = 0;
+
+ private:
+  TriMesh& mesh_;
+};
+
+/// Faces split off as non-manifold that are accepted whatever the size of the mesh.
+constexpr size_t kMaxSplitFaces = 1000;
+
+/// Throws InvalidMesh for a face with fewer than 3 vertices, an index outside
+/// [0, numVertices) or a repeated vertex.
+void checkFace(const std::string& source, const RawFace& f, size_t k, long long numVertices,
+               int base) {
+  const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") + ": face " +
+                            std::to_string(k + base);
+  if (f.ids.size() < 3) throw InvalidMesh(where + " has fewer than 3 vertices");
+  for (size_t j = 0; j < f.ids.size(); ++j) {
+    if (f.ids[j] < 0 || f.ids[j] >= numVertices) {
+      throw InvalidMesh(where + " has vertex index " + std::to_string(f.ids[j] + base) +
+                        " out of range " + std::to_string(base) + ".." +
+                        std::to_string(numVertices - 1 + base));
+    }
+  }
+  std::vector<long long> sorted = f.ids;
+  std::sort(sorted.begin(), sorted.end());
+  const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
+  if (dup != sorted.end()) {
+    throw InvalidMesh(where + " is degenerate: vertex " + std::to_string(*dup + base) +
+                      " appears twice");
+  }
+}
+
+}  // namespace
+
+namespace {
+OpenMesh::mostream& omStream(int i) { return i == 0 ? ::omerr() : i == 1 ? ::omlog() : ::omout(); }
+}  // namespace
+
+OpenMeshQuiet::OpenMeshQuiet() {
+  for (int i = 0; i < 3; ++i) {
+    was_[i] = omStream(i).is_enabled();
+    omStream(i).disable();
+  }
+}
+
+OpenMeshQuiet::~OpenMeshQuiet() {
+  for (int i = 0; i < 3; ++i)
+    if (was_[i]) omStream(i).enable();
+}
+
+TriMesh buildTriMesh(const RawMesh& raw, const std::string& source) {
+  OpenMeshQuiet quiet;
+  const long long n = static_cast<long long>(raw.points.size());
+  if (n > 2000000000LL) throw InvalidMesh(source + ": more than 2e9 vertices");
+  for (size_t k = 0; k < raw.faces.size(); ++k) checkFace(source, raw.faces[k], k, n, raw.base);
+  TriMesh tri;
+  SplittingImporter importer(tri);
+  for (const auto& p : raw.points) importer.add_vertex(OpenMesh::Vec3d(p[0], p[1], p[2]));
+  int polygons = 0, triangles = 0;
+  std::vector<OpenMesh::VertexHandle> corners(3);
+  for (size_t k = 0; k < raw.faces.size(); ++k) {
+    const RawFace& f = raw.faces[k];
+    std::vector<std::array<long long, 3>> tris;
+    if (f.ids.size() == 3) {
+      tris.push_back({f.ids[0], f.ids[1], f.ids[2]});
+    } else {
+      const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") +
+                                ": face " + std::to_string(k + raw.base);
+      tris = triangulatePolygon(raw.points, f.ids, where);
+      ++polygons;
+      triangles += static_cast<int>(tris.size());
+    }
+    for (const auto& t : tris) {
+      for (int j = 0; j < 3; ++j) corners[j] = OpenMesh::VertexHandle(static_cast<int>(t[j]));
+      importer.add_face(corners);
+    }
+    // Each split face copies its vertices: a file of repeated faces would grow ~100 bytes of
+    // memory per byte read. A few non-manifold faces are common, a mesh made of them is not.
+    const size_t split = static_cast<size_t>(importer.splitFaces);
+    if (split > std::max<size_t>(kMaxSplitFaces, raw.faces.size() / 10)) {
+      const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "");
+      throw InvalidMesh(where + ": face " + std::to_string(k + raw.base) + ": " +
+                        std::to_string(split) +
+                        " faces so far would make the mesh non-manifold (repeated faces, or "
+                        "more than two faces on an edge); at most 1000 or 10% are accepted");
+    }
+  }
+  if (polygons > 0) {
+    warn(source + ": triangulated " + std::to_string(polygons) + " polygonal faces into " +
+         std::to_string(triangles) + " triangles");
+  }
+  if (importer.splitFaces > 0) {
+    warn(source + ": " + std::to_string(importer.splitFaces) +
+         " faces would make the mesh non-manifold; each was split off with its own copies of "
+         "its vertices (" +
+         std::to_string(importer.duplicated) + " vertices appended after the file's " +
+         std::to_string(n) + ")");
+  }
+  return tri;
+}
+
+namespace {
+
+/// Throws unless the counts in the header of an OpenMesh .om file fit its size.
+void checkOmHeader(std::string_view text, const std::string& source) {
+  if (text.size() < 16 || text[0] != 'O' || text[1] != 'M') {
+    throw InvalidMesh(source + ": not an OpenMesh .om file (no OM header)");
+  }
+  std::uint32_t counts[3];
+  std::memcpy(counts, text.data() + 4, 12);  // little-endian, as OpenMesh writes on x86
+  const std::uint64_t size = text.size();
+  // Positions take at least 3 floats a vertex; faces and edges at least 4 bytes each.
+  if (12 * std::uint64_t(counts[0]) + 4 * std::uint64_t(counts[1]) + 4 * std::uint64_t(counts[2]) >
+      size) {
+    throw InvalidMesh(source + ": the header says " + std::to_string(counts[0]) + " vertices, " +
+                      std::to_string(counts[1]) + " faces and " + std::to_string(counts[2]) +
+                      " edges, more than its " + std::to_string(size) + " bytes can hold");
+  }
+}
+
+}  // namespace
+
+TriMesh parseOm(std::string_view bytes, const std::string& source) {
+  checkOmHeader(bytes, source);
+  TriMesh tri;
+  OpenMesh::IO::ImporterT<TriMesh> importer(tri);
+  OpenMesh::IO::Options opt = OpenMesh::IO::Options::Custom;  // restore persistent properties
+  std::istringstream in{std::string(bytes)};
+  bool ok = false;
+  {
+    OpenMeshQuiet quiet;
+    ok = OpenMesh::IO::IOManager().read(in, "om", importer, opt);
+  }
+  if (!ok) throw InvalidMesh(source + ": OpenMesh's om reader cannot read it");
+  return tri;
+}
+
+}  // namespace diffreg

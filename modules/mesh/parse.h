@@ -1,0 +1,62 @@
+// Parsers of the mesh file formats, from the file's bytes: OBJ, OFF (ASCII and binary), PLY
+// (ASCII and binary), Medit .mesh and TetGen .node/.ele. Coordinates are read in double
+// precision; counts are checked against the bytes left before anything is allocated, and
+// arrays grow only as elements are read. Every error is an InvalidMesh "source:line: ..."
+// (or "source: ..." for binary data, naming the element).
+#pragma once
+
+#include "mesh/mesh.h"
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace diffreg {
+
+/// Silences OpenMesh's own console output (omerr, omlog, omout) while alive: every problem
+/// it would print is detected and reported by diffreg instead.
+class OpenMeshQuiet {
+ public:
+  OpenMeshQuiet();
+  ~OpenMeshQuiet();
+  OpenMeshQuiet(const OpenMeshQuiet&) = delete;
+  OpenMeshQuiet& operator=(const OpenMeshQuiet&) = delete;
+
+ private:
+  bool was_[3] = {true, true, true};
+};
+
+/// A face as written in the file: 0-based vertex ids and its line (0 when unknown).
+struct RawFace {
+  int line = 0;
+  std::vector<long long> ids;
+};
+
+/// A polygon mesh as read: points and faces, before any check of the faces.
+struct RawMesh {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<RawFace> faces;
+  int base = 0;  ///< the file's first vertex and face number in messages (OBJ: 1)
+};
+
+RawMesh parseObj(std::string_view text, const std::string& source);
+RawMesh parseOff(std::string_view text, const std::string& source);
+RawMesh parsePly(std::string_view text, const std::string& source);
+TetMesh parseMedit(std::string_view text, const std::string& source);
+TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::string_view ele,
+                    const std::string& eleSource);
+
+/// The triangle mesh of `raw`: faces checked (at least 3 distinct vertices in range), polygons
+/// triangulated in their plane (non-planar or self-intersecting ones refused), faces that would
+/// make the mesh non-manifold split off with their own vertex copies (after the file's; more
+/// than 1000 of them and more than 10% of the faces is an error). Warns about polygons and
+/// split faces.
+/// \throw InvalidMesh naming `source`, the line and the face.
+TriMesh buildTriMesh(const RawMesh& raw, const std::string& source);
+
+/// An OpenMesh .om file (through OpenMesh's reader, which keeps doubles and restores the
+/// persistent properties), after checking the counts in its header against its size.
+/// \throw InvalidMesh when the file is too short for them or OpenMesh cannot read it.
+TriMesh parseOm(std::string_view bytes, const std::string& source);
+
+}  // namespace diffreg

@@ -1,0 +1,139 @@
+// diffreg serve against hostile clients: foreign Host (DNS rebinding) and Origin, writes that
+// are not JSON, picked-points files that are devices or missing, stalled connections, file
+// names that are not UTF-8.
+#include "core/error.h"
+#include "mesh/io.h"
+#include "serve/api.h"
+#include "serve/server.h"
+
+#include <httplib.h>
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+using namespace diffreg;
+using nlohmann::json;
+
+namespace {
+
+struct Server {
+  explicit Server(const std::string& name = "bar.obj") {
+    Mesh mesh = readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/bar.obj");
+    api = std::make_unique<Api>(std::make_unique<EditSession>(std::move(mesh)), name);
+    server = std::make_unique<HttpServer>(*api);
+    port = server->bind("127.0.0.1", 0);
+    server->start();
+    client = std::make_unique<httplib::Client>("127.0.0.1", port);
+    client->set_read_timeout(60);
+  }
+  ~Server() { server->stop(); }
+  int handles() {
+    auto r = client->Get("/api/handles");
+    REQUIRE(r);
+    return static_cast<int>(json::parse(r->body).at("handles").size());
+  }
+  std::unique_ptr<Api> api;
+  std::unique_ptr<HttpServer> server;
+  std::unique_ptr<httplib::Client> client;
+  int port = 0;
+};
+
+const std::string kHandle = R"({"vertices": [0, 33], "name": "left"})";
+
+}  // namespace
+
+TEST_CASE("serve refuses foreign hosts, foreign origins and non-JSON writes", "[serve][hostile]") {
+  Server s;
+  SECTION("a Host that is not 127.0.0.1:PORT (DNS rebinding)") {
+    auto r = s.client->Get("/api/state", {{"Host", "attacker.example:" + std::to_string(s.port)}});
+    REQUIRE(r);
+    CHECK(r->status == 403);
+    auto w =
+        s.client->Post("/api/handles", {{"Host", "attacker.example"}}, kHandle, "application/json");
+    REQUIRE(w);
+    CHECK(w->status == 403);
+  }
+  SECTION("a write from another site's page, even as text/plain") {
+    auto r = s.client->Post("/api/handles", {{"Origin", "http://attacker.example"}}, kHandle,
+                            "text/plain");
+    REQUIRE(r);
+    CHECK(r->status == 403);
+    auto t = s.client->Post("/api/handles", kHandle, "text/plain");
+    REQUIRE(t);
+    CHECK(t->status == 415);
+  }
+  CHECK(s.handles() == 0);
+  SECTION("the page's own origin and JSON are accepted") {
+    auto r =
+        s.client->Post("/api/handles", {{"Origin", "http://127.0.0.1:" + std::to_string(s.port)}},
+                       kHandle, "application/json");
+    REQUIRE(r);
+    CHECK(r->status == 200);
+    CHECK(s.handles() == 1);
+  }
+}
+
+TEST_CASE("serve: picked-points files that are devices or missing get one 4xx",
+          "[serve][hostile]") {
+  Server s;
+  std::vector<std::string> bodies;
+  for (const char* path : {"/dev/zero", "/nonexistent/x.pp", "/etc", "/etc/passwd"})
+    bodies.push_back(json{{"handles", {{{"picked", path}}}}}.dump());
+  std::string first;
+  for (const auto& body : bodies) {
+    auto r = s.client->Put("/api/handles", body, "application/json");
+    REQUIRE(r);
+    INFO(body << " -> " << r->body);
+    CHECK(r->status >= 400);
+    CHECK(r->status < 500);
+    const std::string message = json::parse(r->body).at("error");
+    CHECK(message.find("/etc") == std::string::npos);
+    CHECK(message.find("/nonexistent") == std::string::npos);
+    if (first.empty()) first = message;
+    CHECK(message == first);  // the same for all: nothing about the file is revealed
+  }
+  auto r = s.client->Get("/api/state");
+  REQUIRE(r);
+  CHECK(r->status == 200);
+}
+
+TEST_CASE("serve: stalled connections do not block other clients", "[serve][hostile]") {
+  Server s;
+  std::vector<int> stalled;
+  for (int i = 0; i < 12; ++i) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<uint16_t>(s.port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
+    const char partial[] = "GET /api/state HTTP/1.1\r\nHo";
+    REQUIRE(::send(fd, partial, sizeof partial - 1, 0) > 0);
+    stalled.push_back(fd);
+  }
+  for (int i = 0; i < 3; ++i) {
+    auto r = s.client->Get("/api/state");
+    REQUIRE(r);
+    CHECK(r->status == 200);
+  }
+  for (int fd : stalled) ::close(fd);
+}
+
+TEST_CASE("serve: a mesh file name that is not UTF-8", "[serve][hostile]") {
+  Server s("bar\xff\xfe.obj");
+  auto state = s.client->Get("/api/state");
+  REQUIRE(state);
+  CHECK(state->status == 200);
+  auto mesh = s.client->Get("/api/mesh");
+  REQUIRE(mesh);
+  REQUIRE(mesh->status == 200);
+  CHECK(json::parse(mesh->body).at("name") == "bar\\xff\\xfe.obj");
+}
