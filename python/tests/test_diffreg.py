@@ -184,7 +184,7 @@ def test_write_and_read_properties(tmp_path):
     np.testing.assert_array_equal(ep["diffreg:distortion"], d)
     ply = str(tmp_path / "square.ply")
     diffreg.write_mesh(ply, V, E, vertex_properties={"diffreg:weight": w})
-    assert "property float quality" in open(ply).read()
+    assert "property double quality" in open(ply).read()
 
 
 def test_threads_solve_at_once():
