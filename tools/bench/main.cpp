@@ -349,7 +349,7 @@ void printConvergence(const std::vector<Result>& results, std::ostream& out) {
   if (any) {
     out << "Convergence: nonuniform/uniform (beta 0.5)/no regularization ARAP, exact local step; "
            "iterations and ms (after the factorization) until the energy is within 1e-3, 1e-4, "
-           "1e-6 of its minimum (relative), plain local/global vs Anderson-accelerated; "
+           "1e-6 of its minimum (relative), plain local/global vs the default acceleration (L-BFGS); "
            "\"default\" = the run with the default stationarity tolerance, its gap at the end.\n\n";
     t.print(out);
   }
