@@ -195,9 +195,9 @@ void DeformationSession::descend(int maxIterations, double tolerance, Eigen::Mat
   while (result.iterations < maxIterations) {
     // The plain step: the global step for the current targets, then the local step. Both are
     // exact minimizers, so its energy is at most E; how much lower is the criterion.
-    Eigen::MatrixXd plain = system_.solve(t_, targets_);
+    Eigen::MatrixXd plain;
     plainT = t_;
-    const double plainEnergy = local(plain, plainT, plainE);
+    const double plainEnergy = plainStep(plain, plainT, plainE);
     result.criterion = E > 0.0 ? std::max(0.0, (E - plainEnergy) / E) : 0.0;
     // The Anderson step, taken only when it ends lower than E (the safeguard).
     bool takeMixed = false;
@@ -208,25 +208,28 @@ void DeformationSession::descend(int maxIterations, double tolerance, Eigen::Mat
       takeMixed = mixedEnergy < E;
     }
     if (takeMixed) {
-      X.swap(mixed);
-      t_.swap(mixedT);
-      e_.swap(mixedE);
-      E = mixedEnergy;
+      advance(X, mixed, mixedT, mixedE, mixedEnergy, E, result);
       ++result.accelerated;
     } else {
-      X.swap(plain);
-      t_.swap(plainT);
-      e_.swap(plainE);
-      E = plainEnergy;
+      advance(X, plain, plainT, plainE, plainEnergy, E, result);
     }
-    result.energies.push_back(E);
-    ++result.iterations;
     report(result);
     if (result.criterion <= tolerance) {
       result.converged = true;
       return;
     }
   }
+}
+
+void DeformationSession::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next,
+                                 Eigen::MatrixXd& nextT, Eigen::MatrixXd& nextE, double energy,
+                                 double& E, DeformationResult& result) {
+  X.swap(next);
+  t_.swap(nextT);
+  e_.swap(nextE);
+  E = energy;
+  result.energies.push_back(E);
+  ++result.iterations;
 }
 
 double DeformationSession::plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
@@ -255,13 +258,8 @@ void DeformationSession::descendLbfgs(int maxIterations, double tolerance, Eigen
     const double decrease = E > 0.0 ? std::max(0.0, (E - energy) / E) : 0.0;
     Eigen::MatrixXd gNew = gradient(trial, trialT);
     history.add(trial - X, gNew - g);
-    X.swap(trial);
-    t_.swap(trialT);
-    e_.swap(trialE);
     g.swap(gNew);
-    E = energy;
-    result.energies.push_back(E);
-    ++result.iterations;
+    advance(X, trial, trialT, trialE, energy, E, result);
     return decrease;
   };
   while (result.iterations < maxIterations) {

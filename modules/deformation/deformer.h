@@ -148,7 +148,11 @@ class DeformationSession {
                DeformationResult& result);
   void descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                     DeformationResult& result);
-  // The plain step from (X, t_): global, then local. Returns its energy (at most the current).
+  // Makes (next, nextT, nextE) with its energy the current iterate (X, t_, e_, E) and counts it.
+  void advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Eigen::MatrixXd& nextT,
+               Eigen::MatrixXd& nextE, double energy, double& E, DeformationResult& result);
+  // The plain step from targets t: the global step into X, then the local step updating t and e.
+  // Returns its energy (at most the energy of the shape t was fitted to).
   double plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e);
   // The energy gradient's direction A X - C t on the free unknowns (0 on the fixed ones).
   Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t);
