@@ -1,5 +1,5 @@
-// diffreg resolution: the paper's resolution experiment (Fig. 9; METHOD.md §4 "Units of t") on a
-// shipped scenario, its picture and its errors.
+// diffreg resolution: the paper's resolution experiment (Fig. 9; docs/method.md, "Diffused weights"
+// "Units of t") on a shipped scenario, its picture and its errors.
 #include "cli_fixture.h"
 #include "render/image.h"
 

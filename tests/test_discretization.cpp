@@ -1,4 +1,5 @@
-// Discretization (METHOD.md §1): properties of K, M, G_e, a_e and the facet adjacency.
+// Discretization (docs/method.md, "Discretization"): properties of K, M, G_e, a_e and the facet
+// adjacency.
 #include "discretization/discretization.h"
 
 #include "core/error.h"

@@ -1,6 +1,7 @@
 // The flip_edges and subdivide filters: what they keep consistent in the document (vertex ids,
 // rest positions, handles), the paper's robustness experiments through a pipeline
-// (triangulation, Fig. 8; resolution, Fig. 9 and METHOD.md §4 "Units of t"), and their errors.
+// (triangulation, Fig. 8; resolution, Fig. 9 and docs/method.md, "Diffused weights" "Units of t"),
+// and their errors.
 #include "core/error.h"
 #include "mesh/edit.h"
 #include "mesh/shapes.h"
@@ -241,7 +242,7 @@ TEST_CASE("Loop subdivision moves the rest shape; handle vertices keep their dis
 TEST_CASE(
     "Resolution through a pipeline: after 1-to-4 subdivision the weights at the original "
     "vertices stay with t in absolute or diagonal units and shrink with mean_edge2 "
-    "(paper Fig. 9, METHOD.md §4)",
+    "(paper Fig. 9, docs/method.md: Diffused weights)",
     "[filter][mesh_edit][paper]") {
   // A disk handle (the vertices within 0.3 of (1, 1); subdivide grows it over the edges between
   // them, so it keeps its extent) and a one-vertex handle at the same place, on a 4 x 2

@@ -1,6 +1,7 @@
-// The rbf_weights filter: the Gaussian sum of METHOD.md §5 on the rest shape, the paper's
-// argument against it (two nearby handles: RBF weights between them exceed the handle values,
-// diffused weights obey the maximum principle; paper §3.2.2, Fig. 10), tet meshes and errors.
+// The rbf_weights filter: the Gaussian sum of docs/method.md, "The RBF baseline" on the rest shape,
+// the paper's argument against it (two nearby handles: RBF weights between them exceed the handle
+// values, diffused weights obey the maximum principle; paper §3.2.2, Fig. 10), tet meshes and
+// errors.
 #include "core/error.h"
 #include "mesh/shapes.h"
 #include "pipeline/pipeline.h"
@@ -111,8 +112,8 @@ TEST_CASE(
   }
 
   // Diffusion over a comparable range (t = 2 sigma^2) stays within [0, max m_j]: exactly for
-  // the first-order scheme, to 1e-3 for the second-order one (METHOD.md §4); it still covers
-  // the region between the handles.
+  // the first-order scheme, to 1e-3 for the second-order one (docs/method.md, "Diffused weights");
+  // it still covers the region between the handles.
   for (const std::string order : {"first", "second"}) {
     INFO(order);
     Document doc = input;

@@ -1,4 +1,5 @@
-// Diffused weights (paper §3.2-3.3, METHOD.md §4): published properties and factorization reuse.
+// Diffused weights (paper §3.2-3.3, docs/method.md, "Diffused weights"): published properties and
+// factorization reuse.
 #include "weights/diffusion.h"
 
 #include "core/error.h"
@@ -73,7 +74,7 @@ TEST_CASE("The range grows monotonically with t and with r_j", "[weights]") {
   const std::vector<int> a = near(d, {1, 1, 0}, 0.01), b = near(d, {3, 1, 0}, 0.01);
   for (DiffusionOrder order : {DiffusionOrder::First, DiffusionOrder::Second}) {
     // First order is an M-matrix system: monotone exactly. The second-order matrix is not, and
-    // undershoots by ~2e-4 here; METHOD.md §4 bounds that at 1e-3.
+    // undershoots by ~2e-4 here; docs/method.md, "Diffused weights" bounds that at 1e-3.
     const double slack = order == DiffusionOrder::First ? 1e-12 : 1e-3;
     DiffusionWeights w(d);
     w.setHandles({a, b}, {1.0, 1.0}, {1.0, 1.0});

@@ -1,4 +1,4 @@
-// The RBF baseline (paper §3.2.2, Fig. 10; METHOD.md §5) and the heat-method geodesic
+// The RBF baseline (paper §3.2.2, Fig. 10; docs/method.md, "The RBF baseline") and the heat-method geodesic
 // distances it can use.
 #include "core/error.h"
 #include "discretization/discretization.h"
@@ -139,7 +139,8 @@ TEST_CASE("RBF distance names", "[weights][rbf]") {
                     Catch::Contains("manhattan") && Catch::Contains("euclidean, geodesic"));
 }
 
-TEST_CASE("RBF weights are the Gaussian sum of METHOD.md §5", "[weights][rbf]") {
+TEST_CASE("RBF weights are the Gaussian sum of docs/method.md (The RBF baseline)",
+          "[weights][rbf]") {
   const Mesh mesh = makeRectangle(8, 2, 32, 8);
   const int a = nearest(mesh, {0.5, 1, 0}), b = nearest(mesh, {7.5, 1, 0});
   const HandleSet handles = handleSet({handle({a}, 0.7, 1.0), handle({b}, 0.4, 2.0)});

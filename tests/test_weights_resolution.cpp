@@ -1,7 +1,7 @@
-// Diffused weights under refinement and re-triangulation (METHOD.md §4 "Units of t"; paper
-// Fig. 8 and Fig. 9): with t in length^2 (absolute) or in squared diagonals the weights at the
-// original vertices converge under 1-to-4 subdivision, with t in squared mean edge lengths
-// they shrink; random edge flips change them little.
+// Diffused weights under refinement and re-triangulation (docs/method.md, "Diffused weights" "Units
+// of t"; paper Fig. 8 and Fig. 9): with t in length^2 (absolute) or in squared diagonals the
+// weights at the original vertices converge under 1-to-4 subdivision, with t in squared mean edge
+// lengths they shrink; random edge flips change them little.
 #include "discretization/discretization.h"
 #include "handles/handles.h"
 #include "mesh/edit.h"

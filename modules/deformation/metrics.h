@@ -1,5 +1,5 @@
-// Deformation quality measures (METHOD.md §6, the paper's Table 1 and Fig. 2). Plain functions
-// of a discretization, an energy and positions, usable outside any pipeline.
+// Deformation quality measures (docs/method.md, "Metrics", the paper's Table 1 and Fig. 2). Plain
+// functions of a discretization, an energy and positions, usable outside any pipeline.
 #pragma once
 
 #include "deformation/residual_model.h"

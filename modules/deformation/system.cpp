@@ -283,7 +283,8 @@ std::string RegularizedSystem::singularity() const {
     }
   const double tolerance = 1e-8 * disc.boundingBoxDiagonal();
   for (int ci = 0; ci < nc; ++ci) {
-    // beta = 1 on the whole component: S alone does not pin affine maps (METHOD.md §3).
+    // beta = 1 on the whole component: S alone does not pin affine maps (docs/method.md, "The
+    // regularizer").
     const int need = hasEnergy[ci] ? base : d;
     const auto& h = handlesOf[ci];
     Eigen::MatrixXd P(static_cast<Eigen::Index>(h.size()), d);

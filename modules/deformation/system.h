@@ -1,6 +1,6 @@
-// The regularized quadratic system of one energy (METHOD.md §3) with hard constraints by
-// elimination. For the stacked residual operator J (e = J x - t), the element weights
-// W = diag((1 - beta_k) a_k) and the facet weights Ws = diag(ell beta_kl c_kl) on the facet
+// The regularized quadratic system of one energy (docs/method.md, "The regularizer") with hard
+// constraints by elimination. For the stacked residual operator J (e = J x - t), the element
+// weights W = diag((1 - beta_k) a_k) and the facet weights Ws = diag(ell beta_kl c_kl) on the facet
 // differences D (D e = e_k - e_l):
 //
 //     A = J^T W J + (D J)^T Ws (D J),      A x = C t,   C = J^T (W + D^T Ws D).
@@ -10,11 +10,11 @@
 // session (the elements' and, unless left out, the facets' couplings), so new weights rewrite
 // values only.
 //
-// ell is the mean rest edge length. METHOD.md §3 measures a_k and c_kl on the rest mesh scaled
-// to unit mean edge length: a' = ell^-md a, c' = ell^-(md-1) c and G' = ell G, so its matrix is
-// ell^(2-md) times this A. A constant factor leaves the minimizer unchanged: beta means the same
-// on a mesh in any unit, scaling the mesh and its motion by s scales the solution by s, and with
-// beta = 0 the separable matrix is exactly the cotangent stiffness K.
+// ell is the mean rest edge length. docs/method.md ("The regularizer") measures a_k and c_kl on the
+// rest mesh scaled to unit mean edge length: a' = ell^-md a, c' = ell^-(md-1) c and G' = ell G, so
+// its matrix is ell^(2-md) times this A. A constant factor leaves the minimizer unchanged: beta
+// means the same on a mesh in any unit, scaling the mesh and its motion by s scales the solution by
+// s, and with beta = 0 the separable matrix is exactly the cotangent stiffness K.
 #pragma once
 
 #include "deformation/regularizer.h"

@@ -1,7 +1,7 @@
-// The one discretization every operator is built on (METHOD.md §1): per-element gradients
-// G_e, measures a_e, element adjacency with facet weights c_kl, stiffness K and lumped mass M,
-// for planar triangles (2D), surface triangles (3D thin shell) and tetrahedra. This is the only
-// numerical code that knows mesh types.
+// The one discretization every operator is built on (docs/method.md, "Discretization"): per-element
+// gradients G_e, measures a_e, element adjacency with facet weights c_kl, stiffness K and lumped
+// mass M, for planar triangles (2D), surface triangles (3D thin shell) and tetrahedra. This is the
+// only numerical code that knows mesh types.
 #pragma once
 
 #include "mesh/mesh.h"
@@ -71,7 +71,8 @@ class Discretization {
   const std::vector<int>& component() const { return component_; }
   int numComponents() const { return numComponents_; }
 
-  /// Mean rest edge length (the unit of METHOD.md §3) and bounding-box diagonal.
+  /// Mean rest edge length (the unit of docs/method.md, "The regularizer") and bounding-box
+  /// diagonal.
   double meanEdgeLength() const { return meanEdge_; }
   double boundingBoxDiagonal() const { return diagonal_; }
 

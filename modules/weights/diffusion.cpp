@@ -173,7 +173,7 @@ void DiffusionWeights::preparePartition() {
   partitionDirty_ = false;
 }
 
-// The system matrix of METHOD.md §4 for the current order, t and r.
+// The system matrix of docs/method.md, "Diffused weights" for the current order, t and r.
 void DiffusionWeights::prepareMatrix(bool analyzeAgain) {
   const Eigen::VectorXd& M = disc_.lumpedMass();
   const Eigen::VectorXd r = rangeField();

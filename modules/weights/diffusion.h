@@ -1,5 +1,5 @@
-// Diffused regularization weights (paper §3.2-3.3, METHOD.md §4): heat flow from the handles
-// with Dirichlet values m_j, global time t and per-handle range r_j.
+// Diffused regularization weights (paper §3.2-3.3, docs/method.md, "Diffused weights"): heat flow
+// from the handles with Dirichlet values m_j, global time t and per-handle range r_j.
 #pragma once
 
 #include "discretization/discretization.h"
@@ -13,7 +13,7 @@ namespace diffreg {
 
 enum class DiffusionOrder {
   First,          ///< (N + t K_FF) x = t b                      (paper eq. 7)
-  Second,         ///< Dirichlet-consistent second order          (paper eq. 8, METHOD.md §4)
+  Second,         ///< Dirichlet-consistent second order          (paper eq. 8; docs/method.md)
   ImplicitEuler,  ///< n backward-Euler steps of h = t / n        (paper eq. 6, the reference)
 };
 enum class TimeUnit {
@@ -35,7 +35,8 @@ struct DiffusionParams {
   int steps = 100;  ///< implicit Euler only
   /// Clip the result to [0, max m_j]. The first-order scheme already stays there (maximum
   /// principle); the second-order matrix is not an M-matrix and over/undershoots by up to ~1e-3
-  /// (METHOD.md §4), which would otherwise reach the regularization as a weight outside [0, 1].
+  /// (docs/method.md, "Diffused weights"), which would otherwise reach the regularization as a
+  /// weight outside [0, 1].
   bool clip = true;
 };
 
@@ -66,8 +67,8 @@ class DiffusionWeights {
   Eigen::VectorXd solve();
   const SolverStats& stats() const { return solver_.stats(); }
   /// Per-vertex range factor r_i actually used: each vertex takes the r_j of the handle nearest
-  /// to it along mesh edges (METHOD.md §4 leaves open how a handle's r_j reaches the free
-  /// vertices whose diffusion speed it scales; this is the rule diffreg uses).
+  /// to it along mesh edges (the paper leaves open how a handle's r_j reaches the free vertices
+  /// whose diffusion speed it scales; docs/method.md, "Diffused weights").
   Eigen::VectorXd rangeField() const;
 
  private:

@@ -1,5 +1,5 @@
 // Geodesic distances by the heat method (Crane, Weischedel and Wardetzky, "Geodesics in heat",
-// ACM TOG 2013), used by the RBF baseline (METHOD.md §5).
+// ACM TOG 2013), used by the RBF baseline (docs/method.md, "The RBF baseline").
 //
 // Triangle meshes (planar and surface) use CGAL's implementation
 // (CGAL::Heat_method_3::Surface_mesh_geodesic_distances_3, Direct mode) on the OpenMesh
@@ -10,7 +10,7 @@
 // accuracy degrades on triangulations with many obtuse angles (negative cotangent weights).
 //
 // Tet meshes: CGAL's heat method exists for triangle surface meshes only, so diffreg runs the
-// same three steps on its own Discretization (METHOD.md §1):
+// same three steps on its own Discretization (docs/method.md, "Discretization"):
 //   1. (M + h K) u = delta_sources, h = (mean edge length)^2, M lumped, K the cotangent matrix;
 //   2. X_e = -grad u_e / |grad u_e| per tet (X_e = 0 where the gradient vanishes);
 //   3. K phi = b with b_i = sum_e a_e g_i . X_e (g_i the gradient of hat function i in e),

@@ -1,4 +1,5 @@
-// The RBF baseline for regularization weights (paper §3.2.2 and Fig. 10, METHOD.md §5):
+// The RBF baseline for regularization weights (paper §3.2.2 and Fig. 10, docs/method.md, "The RBF
+// baseline"):
 //   x(v) = sum_j m_j phi(d(v, j) / (r_j sigma)),   phi(s) = exp(-s^2),
 // d(v, j) the Euclidean or geodesic distance from v to the nearest vertex of handle j. The sum
 // over handles is what lets x exceed max m_j between nearby handles (no maximum principle),

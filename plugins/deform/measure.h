@@ -1,4 +1,5 @@
-// Filter measure: the paper's Table-1 metrics of the current deformation (METHOD.md §6).
+// Filter measure: the paper's Table-1 metrics of the current deformation (docs/method.md,
+// "Metrics").
 #pragma once
 
 #include "pipeline/filter.h"

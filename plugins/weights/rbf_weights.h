@@ -1,5 +1,6 @@
 // Filter rbf_weights: the RBF baseline for regularization weights (paper §3.2.2, Fig. 10;
-// METHOD.md §5), a Gaussian per handle summed over the handles, stored as diffreg:weight.
+// docs/method.md, "The RBF baseline"), a Gaussian per handle summed over the handles, stored as
+// diffreg:weight.
 #pragma once
 
 #include "pipeline/filter.h"

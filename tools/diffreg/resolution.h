@@ -1,4 +1,5 @@
-// diffreg resolution: the paper's resolution experiment (Fig. 9; METHOD.md §4 "Units of t").
+// diffreg resolution: the paper's resolution experiment (Fig. 9; docs/method.md, "Diffused weights"
+// "Units of t").
 #pragma once
 
 namespace diffreg {
