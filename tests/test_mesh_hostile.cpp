@@ -29,19 +29,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-template <class E, class F>
-std::string messageOf(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    const std::string what = e.what();
-    CHECK(what.find('\n') == std::string::npos);
-    return what;
-  }
-  FAIL("no exception of the expected type");
-  return "";
-}
-
 /// True when reading `path` throws a diffreg::Error within 512 MiB of address space.
 bool failsWithinMemory(const std::string& path) {
   return inChildWithMemoryLimit(std::uint64_t(512) << 20, [&] {

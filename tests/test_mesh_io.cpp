@@ -30,20 +30,6 @@ std::string slurp(const std::string& path) {
   return ss.str();
 }
 
-/// The message of the exception of type E that `f` throws (fails when it throws none).
-template <class E, class F>
-std::string messageOf(F&& f) {
-  try {
-    f();
-  } catch (const E& e) {
-    const std::string what = e.what();
-    CHECK(what.find('\n') == std::string::npos);  // one line
-    return what;
-  }
-  FAIL("no exception of the expected type");
-  return "";
-}
-
 const char* kTetFile =
     "MeshVersionFormatted 2\n"
     "Dimension 3\n"

@@ -7,6 +7,7 @@
 #include "pipeline/document.h"
 
 #include <Eigen/Core>
+#include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +17,21 @@
 #include <utility>
 
 namespace diffreg::testing {
+
+/// The message of the exception of type E that `f` throws, checked to be one line (fails when
+/// it throws none).
+template <class E, class F>
+std::string messageOf(F&& f) {
+  try {
+    f();
+  } catch (const E& e) {
+    const std::string what = e.what();
+    CHECK(what.find('\n') == std::string::npos);  // one line
+    return what;
+  }
+  FAIL("no exception of the expected type");
+  return "";
+}
 
 /// A mesh or handle file the project ships in meshes/.
 inline std::string shipped(const std::string& name) {
