@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/file.h"
 #include "core/log.h"
+#include "mesh/om.h"
 #include "mesh/parse.h"
 
 #include <Eigen/Geometry>
@@ -276,7 +277,7 @@ Mesh readMesh(const std::string& path) {
   } else if (ext == "ply") {
     mesh = Mesh(buildTriMesh(parsePly(text(), path), path));
   } else if (ext == "om") {
-    mesh = Mesh(parseOm(text(), path));
+    mesh = parseOm(text(), path);
   } else if (ext == "mesh" || ext == "node" || ext == "ele") {
     TetMesh tet = ext == "mesh" ? parseMedit(text(), path) : readTetgen(path);
     orientTets(tet, path);

@@ -4,7 +4,6 @@
 #include "core/log.h"
 #include "mesh/polygon.h"
 
-#include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/IO/importer/ImporterT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 
@@ -16,7 +15,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <optional>
-#include <sstream>
 
 namespace diffreg {
 namespace {
@@ -960,42 +958,6 @@ TriMesh buildTriMesh(const RawMesh& raw, const std::string& source) {
          std::to_string(importer.duplicated) + " vertices appended after the file's " +
          std::to_string(n) + ")");
   }
-  return tri;
-}
-
-namespace {
-
-/// Throws unless the counts in the header of an OpenMesh .om file fit its size.
-void checkOmHeader(std::string_view text, const std::string& source) {
-  if (text.size() < 16 || text[0] != 'O' || text[1] != 'M') {
-    throw InvalidMesh(source + ": not an OpenMesh .om file (no OM header)");
-  }
-  std::uint32_t counts[3];
-  std::memcpy(counts, text.data() + 4, 12);  // little-endian, as OpenMesh writes on x86
-  const std::uint64_t size = text.size();
-  // Positions take at least 3 floats a vertex; faces and edges at least 4 bytes each.
-  if (12 * std::uint64_t(counts[0]) + 4 * std::uint64_t(counts[1]) + 4 * std::uint64_t(counts[2]) >
-      size) {
-    throw InvalidMesh(source + ": the header says " + std::to_string(counts[0]) + " vertices, " +
-                      std::to_string(counts[1]) + " faces and " + std::to_string(counts[2]) +
-                      " edges, more than its " + std::to_string(size) + " bytes can hold");
-  }
-}
-
-}  // namespace
-
-TriMesh parseOm(std::string_view bytes, const std::string& source) {
-  checkOmHeader(bytes, source);
-  TriMesh tri;
-  OpenMesh::IO::ImporterT<TriMesh> importer(tri);
-  OpenMesh::IO::Options opt = OpenMesh::IO::Options::Custom;  // restore persistent properties
-  std::istringstream in{std::string(bytes)};
-  bool ok = false;
-  {
-    OpenMeshQuiet quiet;
-    ok = OpenMesh::IO::IOManager().read(in, "om", importer, opt);
-  }
-  if (!ok) throw InvalidMesh(source + ": OpenMesh's om reader cannot read it");
   return tri;
 }
 

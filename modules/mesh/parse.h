@@ -54,9 +54,4 @@ TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::s
 /// \throw InvalidMesh naming `source`, the line and the face.
 TriMesh buildTriMesh(const RawMesh& raw, const std::string& source);
 
-/// An OpenMesh .om file (through OpenMesh's reader, which keeps doubles and restores the
-/// persistent properties), after checking the counts in its header against its size.
-/// \throw InvalidMesh when the file is too short for them or OpenMesh cannot read it.
-TriMesh parseOm(std::string_view bytes, const std::string& source);
-
 }  // namespace diffreg

@@ -8,6 +8,7 @@
 #include "core/xml.h"
 #include "handles/handles.h"
 #include "mesh/io.h"
+#include "mesh/om.h"
 #include "mesh/parse.h"
 #include "mesh/shapes.h"
 #include "pipeline/mlx.h"
@@ -63,7 +64,7 @@ void parse(std::string_view bytes) {
 #elif defined(DIFFREG_FUZZ_TARGET_ply)
   checkTriangles(parsePly(bytes, "fuzz"));
 #elif defined(DIFFREG_FUZZ_TARGET_om)
-  Mesh mesh(parseOm(bytes, "fuzz"));
+  Mesh mesh = parseOm(bytes, "fuzz");
   validateMesh(mesh, "fuzz");
 #elif defined(DIFFREG_FUZZ_TARGET_medit)
   checkTets(parseMedit(bytes, "fuzz"));

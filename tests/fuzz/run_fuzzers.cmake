@@ -1,10 +1,8 @@
-# fuzz_om is built but not run here: OpenMesh's own .om reader (Debian's build, with asserts)
-# aborts on some corrupt files within seconds, which diffreg cannot fix from outside (README).
-# Runs every other fuzz target for SECONDS seconds on a copy of its seed corpus (the copy collects what
+# Runs every fuzz target for SECONDS seconds on a copy of its seed corpus (the copy collects what
 # the fuzzer finds, so the repository's corpus stays as committed). Fails on the first finding.
 #   cmake -DFUZZ_DIR=<dir of the fuzz_* binaries> -DCORPUS=<tests/fuzz/corpus>
 #         -DWORK=<scratch dir> -DSECONDS=7 -P run_fuzzers.cmake
-foreach(kind obj off ply medit tetgen handles pp mlx)
+foreach(kind obj off ply om medit tetgen handles pp mlx)
   set(exe ${FUZZ_DIR}/fuzz_${kind})
   if(NOT EXISTS ${exe})
     message(FATAL_ERROR "fuzz: ${exe} was not built")
