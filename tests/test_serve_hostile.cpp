@@ -15,7 +15,11 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <poll.h>
+
+#include <chrono>
 #include <memory>
+#include <thread>
 #include <string>
 #include <vector>
 
@@ -25,10 +29,10 @@ using nlohmann::json;
 namespace {
 
 struct Server {
-  explicit Server(const std::string& name = "bar.obj") {
+  explicit Server(const std::string& name = "bar.obj", ServerOptions options = {}) {
     Mesh mesh = readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/bar.obj");
     api = std::make_unique<Api>(std::make_unique<EditSession>(std::move(mesh)), name);
-    server = std::make_unique<HttpServer>(*api);
+    server = std::make_unique<HttpServer>(*api, options);
     port = server->bind("127.0.0.1", 0);
     server->start();
     client = std::make_unique<httplib::Client>("127.0.0.1", port);
@@ -125,6 +129,38 @@ TEST_CASE("serve: stalled connections do not block other clients", "[serve][host
     CHECK(r->status == 200);
   }
   for (int fd : stalled) ::close(fd);
+}
+
+TEST_CASE("serve: a client that trickles its request is cut off at the deadline",
+          "[serve][hostile]") {
+  ServerOptions options;
+  options.requestSeconds = 1.0;
+  Server s("bar.obj", options);
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(s.port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
+  const std::string head = "GET /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
+  REQUIRE(::send(fd, head.data(), head.size(), MSG_NOSIGNAL) > 0);
+  // One byte every 0.2 s (each read well within httplib's one-second read timeout) for up to
+  // 10 s: the server must close the connection (a send fails or the socket reads end of file).
+  bool cut = false;
+  for (int i = 0; i < 50 && !cut; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    cut = ::send(fd, "a", 1, MSG_NOSIGNAL) <= 0;
+    pollfd p{fd, POLLIN, 0};
+    if (!cut && ::poll(&p, 1, 0) > 0) {
+      char c;
+      cut = ::recv(fd, &c, 1, MSG_DONTWAIT) <= 0;
+    }
+  }
+  ::close(fd);
+  CHECK(cut);
+  auto r = s.client->Get("/api/state");  // and the server still answers
+  REQUIRE(r);
+  CHECK(r->status == 200);
 }
 
 TEST_CASE("serve: a mesh file name that is not UTF-8", "[serve][hostile]") {

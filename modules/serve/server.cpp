@@ -1,11 +1,13 @@
 #include "serve/server.h"
 
 #include "core/error.h"
+#include "serve/connection.h"
 
 #include <httplib.h>
 
 #include <sys/socket.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cstdlib>
 #include <filesystem>
@@ -53,14 +55,18 @@ std::string defaultWebDir() {
 }
 
 HttpServer::HttpServer(Api& api, ServerOptions options)
-    : api_(api), options_(std::move(options)), server_(std::make_unique<httplib::Server>()) {
+    : api_(api),
+      options_(std::move(options)),
+      server_(std::make_unique<DeadlineServer>(std::chrono::milliseconds(
+          static_cast<long long>(std::max(0.001, options_.requestSeconds) * 1000.0)))) {
   if (options_.webDir.empty()) options_.webDir = defaultWebDir();
   if (!fs::exists(fs::path(options_.webDir) / "index.html"))
     throw IoError("web directory '" + options_.webDir + "' has no index.html");
 
   httplib::Server& svr = *server_;
   svr.set_payload_max_length(api_.options().maxBodyBytes);
-  // Slow clients: a connection that sends nothing for a second is closed, idle keep-alive
+  // Slow clients: a connection that sends nothing for a second is closed, one whose request has
+  // not arrived within options_.requestSeconds too (DeadlineServer), idle keep-alive
   // connections after a second, and enough workers that a few stalled clients block no one.
   svr.set_read_timeout(1, 0);
   svr.set_write_timeout(5, 0);

@@ -21,6 +21,9 @@ struct ServerOptions {
   std::string webDir;
   /// three.module.js, served as /three/three.module.js.
   std::string threeModule = "/usr/share/javascript/three/build/three.module.js";
+  /// A request's line, headers and body must arrive within this time of its first byte (a
+  /// client that trickles bytes is cut off; computing the answer is not limited).
+  double requestSeconds = 10.0;
 };
 
 /// The web directory of this build (the source tree's web/ when present, else the installed
@@ -46,7 +49,7 @@ class HttpServer {
   void stop();
 
   /// Worker threads: more than the few connections a page keeps open, so that stalled clients
-  /// (each cut after a second of silence) block no one.
+  /// (each cut after a second of silence or ServerOptions::requestSeconds) block no one.
   static constexpr size_t kWorkers = 32;
 
  private:

@@ -1,0 +1,135 @@
+#include "serve/connection.h"
+
+#include <arpa/inet.h>
+#include <netdb.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <string>
+
+namespace diffreg {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// poll() for one event, retried on EINTR; true when it came within `ms`.
+bool waitFor(socket_t sock, short event, int ms) {
+  pollfd p{sock, event, 0};
+  for (;;) {
+    const int r = ::poll(&p, 1, std::max(ms, 0));
+    if (r < 0 && errno == EINTR) continue;
+    return r > 0 && (p.revents & (event | POLLHUP | POLLERR)) != 0;
+  }
+}
+
+void addressOf(socket_t sock, bool peer, std::string& ip, int& port) {
+  sockaddr_storage addr{};
+  socklen_t length = sizeof addr;
+  const int r = peer ? ::getpeername(sock, reinterpret_cast<sockaddr*>(&addr), &length)
+                     : ::getsockname(sock, reinterpret_cast<sockaddr*>(&addr), &length);
+  if (r != 0) return;
+  char host[NI_MAXHOST], service[NI_MAXSERV];
+  if (::getnameinfo(reinterpret_cast<sockaddr*>(&addr), length, host, sizeof host, service,
+                    sizeof service, NI_NUMERICHOST | NI_NUMERICSERV) == 0) {
+    ip = host;
+    port = std::atoi(service);
+  }
+}
+
+/// httplib's Stream over a socket: buffered reads that each wait at most the read timeout and
+/// fail once the current request's deadline has passed; writes that wait at most the write
+/// timeout.
+class DeadlineStream : public httplib::Stream {
+ public:
+  DeadlineStream(socket_t sock, std::chrono::milliseconds readTimeout,
+                 std::chrono::milliseconds writeTimeout)
+      : sock_(sock), readTimeout_(readTimeout), writeTimeout_(writeTimeout) {}
+
+  void startRequest(Clock::time_point deadline) { deadline_ = deadline; }
+
+  bool is_readable() const override {
+    return begin_ < end_ || waitFor(sock_, POLLIN, millisecondsLeft());
+  }
+  bool is_writable() const override {
+    return waitFor(sock_, POLLOUT, static_cast<int>(writeTimeout_.count()));
+  }
+  ssize_t read(char* ptr, size_t size) override {
+    if (begin_ == end_) {
+      if (!is_readable()) return -1;
+      ssize_t n;
+      do n = ::recv(sock_, buffer_, sizeof buffer_, 0);
+      while (n < 0 && errno == EINTR);
+      if (n <= 0) return n;
+      begin_ = 0;
+      end_ = static_cast<size_t>(n);
+    }
+    const size_t n = std::min(size, end_ - begin_);
+    std::memcpy(ptr, buffer_ + begin_, n);
+    begin_ += n;
+    return static_cast<ssize_t>(n);
+  }
+  ssize_t write(const char* ptr, size_t size) override {
+    if (!is_writable()) return -1;
+    ssize_t n;
+    do n = ::send(sock_, ptr, size, MSG_NOSIGNAL);
+    while (n < 0 && errno == EINTR);
+    return n;
+  }
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    addressOf(sock_, true, ip, port);
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    addressOf(sock_, false, ip, port);
+  }
+  socket_t socket() const override { return sock_; }
+
+ private:
+  /// The read timeout, cut to what is left until the deadline (0 once it has passed).
+  int millisecondsLeft() const {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline_ - Clock::now());
+    return static_cast<int>(std::max<long long>(0, std::min(left, readTimeout_).count()));
+  }
+
+  socket_t sock_;
+  std::chrono::milliseconds readTimeout_, writeTimeout_;
+  Clock::time_point deadline_ = Clock::time_point::max();
+  char buffer_[4096];
+  size_t begin_ = 0, end_ = 0;
+};
+
+}  // namespace
+
+bool DeadlineServer::nextRequestArrives(socket_t sock) const {
+  // In slices, so that stop() (which closes the listening socket) ends idle connections soon.
+  const auto until = Clock::now() + std::chrono::seconds(keep_alive_timeout_sec_);
+  while (svr_sock_ != INVALID_SOCKET) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now()).count();
+    if (left <= 0) return false;
+    if (waitFor(sock, POLLIN, static_cast<int>(std::min<long long>(left, 100)))) return true;
+  }
+  return false;
+}
+
+bool DeadlineServer::process_and_close_socket(socket_t sock) {
+  using std::chrono::milliseconds;
+  const auto ms = [](time_t sec, time_t usec) { return milliseconds(sec * 1000 + usec / 1000); };
+  DeadlineStream stream(sock, ms(read_timeout_sec_, read_timeout_usec_),
+                        ms(write_timeout_sec_, write_timeout_usec_));
+  bool ok = false;
+  for (size_t left = keep_alive_max_count_; left > 0 && nextRequestArrives(sock); --left) {
+    stream.startRequest(Clock::now() + requestTime_);
+    bool closed = false;
+    ok = process_request(stream, left == 1, closed, nullptr);
+    if (!ok || closed) break;
+  }
+  ::shutdown(sock, SHUT_RDWR);
+  ::close(sock);
+  return ok;
+}
+
+}  // namespace diffreg
