@@ -257,6 +257,26 @@ TEST_CASE("OBJ/OFF/PLY errors name the file and the element", "[mesh][io]") {
   }
 }
 
+TEST_CASE("ASCII PLY values are whitespace-separated: elements may span or share lines",
+          "[mesh][io]") {
+  TempDir tmp;
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+      "property double z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n";
+  const Mesh lines = readMesh(tmp.file(
+      "lines.ply", header + "0 0 0.5\n1 0 0\n1 1 0\n0 1 0.25\n3 0 1 2\n3 0 2 3\n"));
+  const Mesh free = readMesh(tmp.file(
+      "free.ply", header + "0 0\n0.5 1 0 0 1\n1\t0 0 1 0.25 3\n0 1 2 3 0\n\n2 3\n"));
+  CHECK(free.positions() == lines.positions());
+  CHECK(free.elements() == lines.elements());
+  SECTION("a missing value is named with its element and line") {
+    const std::string p = tmp.file("short.ply", header + "0 0 0 1 0 0 1 1 0 0 1 0\n3 0 1 2\n3 0 2\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains("short.ply:12") && Catch::Contains("face 1") &&
+                   Catch::Contains("too few values"));
+  }
+}
+
 TEST_CASE("polygons are triangulated, unreferenced vertices keep their numbering", "[mesh][io]") {
   TempDir tmp;
   const std::string p =

@@ -504,7 +504,8 @@ long long plyIndex(double v) {
 
 namespace {
 
-/// The values of a PLY body, element by element: ASCII (one line per element) or binary.
+/// The values of a PLY body, element by element: ASCII (whitespace-separated, an element may
+/// span lines or share one) or binary.
 class PlyValues {
  public:
   PlyValues(std::string_view text, const PlyHeader& h, const std::string& source)
@@ -514,17 +515,16 @@ class PlyValues {
         lines_(text.substr(h.dataStart), source, false),
         bin_(text.substr(h.dataStart), h.format == PlyFormat::Big, source) {}
 
-  /// Starts element `k` of `e`. \throw InvalidMesh when an ASCII body has no line left.
+  /// Starts element `k` of `e`. \throw InvalidMesh when an ASCII body has no value left.
   void start(const PlyElement& e, long long k) {
     what_ = e.name + " " + std::to_string(k);
-    token_ = 0;
     if (!ascii_) return;
-    if (!lines_.line(tokens_)) {
+    if (!pending_ && !(pending_ = lines_.token(token_))) {
       throw InvalidMesh(source_ + ": the file ends after " + std::to_string(k) + " of " +
                         std::to_string(e.count) + " '" + e.name + "' elements");
     }
   }
-  /// The file's line of the current element (0 for binary).
+  /// The file's line of the last value read (0 for binary).
   int line() const { return ascii_ ? firstLine_ - 1 + lines_.lineNumber() : 0; }
   std::string where() const {
     return source_ + (ascii_ ? ":" + std::to_string(line()) : "") + ": " + what_;
@@ -532,8 +532,11 @@ class PlyValues {
 
   double next(int size, bool isFloat, bool isSigned) {
     if (!ascii_) return bin_.value(size, isFloat, isSigned, what_);
-    if (token_ >= tokens_.size()) throw InvalidMesh(where() + " has too few values");
-    const std::string_view tok = tokens_[token_++];
+    if (!pending_ && !lines_.token(token_)) {
+      throw InvalidMesh(where() + " has too few values (the file ends)");
+    }
+    pending_ = false;
+    const std::string_view tok = token_;
     double v = 0.0;
     const Parsed p = parseDouble(tok, v);
     if (p == Parsed::Bad) throw InvalidMesh(where() + ": expected a number, got " + quote(tok));
@@ -543,15 +546,15 @@ class PlyValues {
     return v;
   }
 
-  /// The length of list `prop`: at most one item per token (ASCII) or per item size (binary)
-  /// left, compared as doubles since an ASCII length may be any number.
+  /// The length of list `prop`: at most one item per two bytes (ASCII: a digit and a space) or
+  /// per item size (binary) left, compared as doubles since an ASCII length may be any number.
   long long listLength(const PlyProperty& prop) {
     const double n = next(prop.countSize, false, false);
-    const double most = ascii_ ? static_cast<double>(tokens_.size())
+    const double most = ascii_ ? static_cast<double>(lines_.remaining() / 2 + 1)
                                : static_cast<double>(bin_.remaining() / prop.size + 1);
     if (!(n >= 0 && n <= most && n == std::floor(n))) {
       throw InvalidMesh(where() + " has a bad list length " +
-                        quote(ascii_ ? tokens_[token_ - 1] : std::string_view("(binary)")));
+                        quote(ascii_ ? token_ : std::string_view("(binary)")));
     }
     return static_cast<long long>(n);
   }
@@ -562,8 +565,8 @@ class PlyValues {
   std::string source_;
   Scanner lines_;
   BinaryReader bin_;
-  std::vector<std::string_view> tokens_;
-  size_t token_ = 0;
+  std::string_view token_;  // the last ASCII value read, or the next one when pending_
+  bool pending_ = false;
   std::string what_;
 };
 
