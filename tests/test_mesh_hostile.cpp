@@ -288,3 +288,72 @@ TEST_CASE("a file of repeated faces is refused before it grows", "[mesh][hostile
   CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
              Catch::Contains(p + ":1005") && Catch::Contains("non-manifold"));
 }
+
+namespace {
+
+/// Peak resident memory added by reading `path`, in bytes, measured in a child process (the
+/// peak is reset first, through /proc/self/clear_refs); -1 when it cannot be measured.
+long long readingPeak(const std::string& path) {
+  int pipe[2];
+  if (::pipe(pipe) != 0) return -1;
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const auto kb = [](const char* key) {
+      std::ifstream in("/proc/self/status");
+      std::string line;
+      while (std::getline(in, line))
+        if (line.rfind(key, 0) == 0) return std::atoll(line.c_str() + std::strlen(key));
+      return -1LL;
+    };
+    std::ofstream("/proc/self/clear_refs") << "5";
+    const long long before = kb("VmRSS:");
+    try {
+      readMesh(path);
+    } catch (const Error&) {
+    }
+    const long long grown = (kb("VmHWM:") - before) * 1024;
+    (void)!::write(pipe[1], &grown, sizeof grown);
+    std::_Exit(0);
+  }
+  long long grown = -1;
+  (void)!::read(pipe[0], &grown, sizeof grown);
+  ::waitpid(pid, nullptr, 0);
+  ::close(pipe[0]);
+  ::close(pipe[1]);
+  return grown;
+}
+
+}  // namespace
+
+TEST_CASE("reading a mesh takes at most 24 times its file size", "[mesh][hostile]") {
+  // The README's bound, on the files that cost the most per byte: the shortest vertex records
+  // (each costs a point as read and a vertex of the mesh) and a grid of short face records.
+  TempDir tmp;
+  std::string vertices, off = "OFF\n300000 1 0\n", grid;
+  for (int i = 0; i < 300000; ++i) vertices += "v 0 0 0\n";
+  for (int i = 0; i < 300000; ++i) off += "0 0 0\n";
+  off += "3 0 1 2\n";
+  std::string medit = "MeshVersionFormatted 1\nDimension 3\nVertices\n300000\n";
+  for (int i = 0; i < 300000; ++i) medit += "0 0 0 0\n";
+  medit += "Tetrahedra\n1\n1 2 3 4 0\nEnd\n";
+  const int n = 250;
+  for (int i = 0; i < n * n; ++i)
+    grid += "v " + std::to_string(i % n) + " " + std::to_string(i / n) + " 0\n";
+  for (int i = 0; i + 1 < n; ++i)
+    for (int j = 0; j + 1 < n; ++j) {
+      const int a = 1 + i * n + j;
+      grid += "f " + std::to_string(a) + " " + std::to_string(a + 1) + " " + std::to_string(a + n) +
+              "\nf " + std::to_string(a + 1) + " " + std::to_string(a + n + 1) + " " +
+              std::to_string(a + n) + "\n";
+    }
+  for (const auto& [name, text] : {std::pair<std::string, std::string>{"points.obj", vertices},
+                                   {"points.off", off},
+                                   {"points.mesh", medit},
+                                   {"grid.obj", grid}}) {
+    const std::string p = tmp.file(name, text);
+    const long long peak = readingPeak(p);
+    INFO(name << ": " << text.size() << " bytes, peak grew by " << peak << " bytes");
+    REQUIRE(peak >= 0);
+    CHECK(peak <= 24 * static_cast<long long>(text.size()));
+  }
+}

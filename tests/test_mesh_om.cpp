@@ -99,7 +99,8 @@ TEST_CASE("OM files OpenMesh writes read back exactly", "[mesh][om]") {
     single.update_normals();
     std::ostringstream out;
     OpenMeshQuiet quiet;
-    OpenMesh::IO::Options opt = OpenMesh::IO::Options::Binary | OpenMesh::IO::Options::VertexNormal |
+    OpenMesh::IO::Options opt = OpenMesh::IO::Options::Binary |
+                                OpenMesh::IO::Options::VertexNormal |
                                 OpenMesh::IO::Options::FaceNormal | OpenMesh::IO::Options::Status;
     REQUIRE(OpenMesh::IO::write_mesh(single, out, ".om", opt));
     const Mesh m = parseOm(out.str(), "f.om");
@@ -132,9 +133,9 @@ TEST_CASE("OM files before version 2 list each face's vertices", "[mesh][om]") {
   CHECK(m.positions()(3, 0) == 1.0);
   SECTION("a vertex id out of range is named") {
     s[s.size() - 6] = 9;  // the last face's last id
-    CHECK_THAT(messageOf<InvalidMesh>([&] { parseOm(s, "old.om"); }),
-               Catch::Contains("old.om") && Catch::Contains("face 1") &&
-                   Catch::Contains("out of range"));
+    CHECK_THAT(
+        messageOf<InvalidMesh>([&] { parseOm(s, "old.om"); }),
+        Catch::Contains("old.om") && Catch::Contains("face 1") && Catch::Contains("out of range"));
   }
 }
 
@@ -189,8 +190,8 @@ TEST_CASE("corrupt OM files end in an error naming the file", "[mesh][om][hostil
     s += std::string(4 * 24, '\0');
     appendU16(s, chunk(6, 7, false, 1, 0));  // 8-bit half-edge records
     for (int h = 0; h < 10; ++h) {
-      s += static_cast<char>((h + 2) % 10);  // next
-      s += static_cast<char>(h % 4);         // vertex
+      s += static_cast<char>((h + 2) % 10);   // next
+      s += static_cast<char>(h % 4);          // vertex
       s += static_cast<char>(h < 6 ? 0 : 1);  // face
     }
     appendU16(s, chunk(2, 7, false, 1, 0));

@@ -137,8 +137,10 @@ class OmReader {
 
   void readHeader() {
     in_.need(1, 16, "the .om header");
-    const char m0 = static_cast<char>(in_.unsignedOf(1, "")), m1 = static_cast<char>(in_.unsignedOf(1, ""));
-    if (m0 != 'O' || m1 != 'M') throw InvalidMesh(src_ + ": not an OpenMesh .om file (no OM header)");
+    const char m0 = static_cast<char>(in_.unsignedOf(1, "")),
+               m1 = static_cast<char>(in_.unsignedOf(1, ""));
+    if (m0 != 'O' || m1 != 'M')
+      throw InvalidMesh(src_ + ": not an OpenMesh .om file (no OM header)");
     kind_ = static_cast<char>(in_.unsignedOf(1, ""));
     version_ = static_cast<int>(in_.unsignedOf(1, ""));
     if (kind_ != 'T' && kind_ != 'Q' && kind_ != 'P') {
@@ -161,20 +163,24 @@ class OmReader {
     const std::uint64_t least =
         12 * numVertices_ + numFaces_ + (version_ >= kVersion20 ? 6 * numEdges_ : 0);
     if (least > bytes_) {
-      throw InvalidMesh(src_ + ": the header says " + std::to_string(numVertices_) +
-                        " vertices, " + std::to_string(numFaces_) + " faces and " +
-                        std::to_string(numEdges_) + " edges, more than its " +
-                        std::to_string(bytes_) + " bytes can hold");
+      throw InvalidMesh(src_ + ": the header says " + std::to_string(numVertices_) + " vertices, " +
+                        std::to_string(numFaces_) + " faces and " + std::to_string(numEdges_) +
+                        " edges, more than its " + std::to_string(bytes_) + " bytes can hold");
     }
   }
 
   std::uint64_t countOf(const Chunk& c) const {
     switch (c.entity) {
-      case kVertex: return numVertices_;
-      case kMesh: return 1;
-      case kFace: return numFaces_;
-      case kEdge: return numEdges_;
-      case kHalfedge: return 2 * numEdges_;
+      case kVertex:
+        return numVertices_;
+      case kMesh:
+        return 1;
+      case kFace:
+        return numFaces_;
+      case kEdge:
+        return numEdges_;
+      case kHalfedge:
+        return 2 * numEdges_;
     }
     throw InvalidMesh(src_ + ": " + where(c) + " names an unknown entity (" +
                       std::to_string(c.entity) + ")");
@@ -193,7 +199,8 @@ class OmReader {
   void readPositions(const Chunk& c) {
     if (hasPoints_) throw InvalidMesh(src_ + ": " + where(c) + " repeats the positions");
     if (c.dim != 3 || !c.isFloat || c.sizeCode > 1) {
-      throw InvalidMesh(src_ + ": " + where(c) + " holds positions that are not 3 floats or doubles");
+      throw InvalidMesh(src_ + ": " + where(c) +
+                        " holds positions that are not 3 floats or doubles");
     }
     const bool isDouble = c.sizeCode == 1;
     in_.need(numVertices_, isDouble ? 24 : 12, where(c) + " (positions)");
@@ -207,7 +214,8 @@ class OmReader {
     const long long v = in_.signedOf(c.integerBytes(), what);
     if (v < lo || (v >= 0 && static_cast<std::uint64_t>(v) >= end)) {
       throw InvalidMesh(src_ + ": " + what + " is " + std::to_string(v) + ", out of range " +
-                        std::to_string(lo) + ".." + std::to_string(static_cast<long long>(end) - 1));
+                        std::to_string(lo) + ".." +
+                        std::to_string(static_cast<long long>(end) - 1));
     }
     return v;
   }
@@ -246,8 +254,9 @@ class OmReader {
     in_.need(numFaces_, kind_ == 'P' ? 2 : w, where(c) + " (faces)");
     for (std::uint64_t f = 0; f < numFaces_; ++f) {
       const std::string what = "face " + std::to_string(f);
-      const std::uint64_t corners =
-          kind_ == 'T' ? 3 : kind_ == 'Q' ? 4 : in_.unsignedOf(2, what + "'s corner count");
+      const std::uint64_t corners = kind_ == 'T'   ? 3
+                                    : kind_ == 'Q' ? 4
+                                                   : in_.unsignedOf(2, what + "'s corner count");
       in_.need(corners, w, what);
       RawFace face;
       for (std::uint64_t j = 0; j < corners; ++j)
@@ -333,8 +342,10 @@ class OmReader {
       return;
     }
     for (const auto& [name, values] : props) {
-      if (vertex) mesh.setVertexScalar(name, values);
-      else mesh.setElementScalar(name, values);
+      if (vertex)
+        mesh.setVertexScalar(name, values);
+      else
+        mesh.setElementScalar(name, values);
     }
   }
 

@@ -238,6 +238,7 @@ RawMesh parseBinaryOff(std::string_view data, const std::string& source) {
   in.i32("the edge count");
   checkCount(source, "vertices", nv, 12, in.remaining());
   checkCount(source, "faces", nf, 4, in.remaining() - 12 * static_cast<std::uint64_t>(nv));
+  raw.points.reserve(static_cast<size_t>(nv));  // 24 bytes for each 12 of the file
   for (long long i = 0; i < nv; ++i) {
     Eigen::Vector3d p;
     for (int c = 0; c < 3; ++c) p[c] = in.f32("a coordinate of vertex " + std::to_string(i));
@@ -287,9 +288,11 @@ RawMesh parseOff(std::string_view text, const std::string& source) {
   }
   const long long nv = count(s.where(), counts[0], "vertex");
   const long long nf = count(s.where(), counts[1], "face");
-  checkCount(s.where(), "vertices", nv, 2, s.remaining());
-  checkCount(s.where(), "faces", nf, 2, s.remaining() - 2 * static_cast<std::uint64_t>(nv));
+  // A vertex takes at least "0 0 0\n", a face "3 0 1 2\n".
+  checkCount(s.where(), "vertices", nv, 6, s.remaining());
+  checkCount(s.where(), "faces", nf, 8, s.remaining() - 6 * static_cast<std::uint64_t>(nv));
   RawMesh raw;
+  raw.points.reserve(static_cast<size_t>(nv));  // 24 bytes for each 6 of the file
   for (long long i = 0; i < nv; ++i) {
     if (!s.line(t)) {
       throw InvalidMesh(source + ": the file ends after " + std::to_string(i) + " of " +
@@ -919,6 +922,9 @@ TriMesh buildTriMesh(const RawMesh& raw, const std::string& source) {
   if (n > 2000000000LL) throw InvalidMesh(source + ": more than 2e9 vertices");
   for (size_t k = 0; k < raw.faces.size(); ++k) checkFace(source, raw.faces[k], k, n, raw.base);
   TriMesh tri;
+  // Room for what the file holds (polygons and split faces may add a little): no doubling of
+  // OpenMesh's arrays while they fill, which would briefly hold three times their size.
+  tri.reserve(raw.points.size(), raw.faces.size() * 3 / 2 + 3, raw.faces.size());
   SplittingImporter importer(tri);
   for (const auto& p : raw.points) importer.add_vertex(OpenMesh::Vec3d(p[0], p[1], p[2]));
   int polygons = 0, triangles = 0;

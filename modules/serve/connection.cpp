@@ -90,7 +90,8 @@ class DeadlineStream : public httplib::Stream {
  private:
   /// The read timeout, cut to what is left until the deadline (0 once it has passed).
   int millisecondsLeft() const {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline_ - Clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline_ - Clock::now());
     return static_cast<int>(std::max<long long>(0, std::min(left, readTimeout_).count()));
   }
 
