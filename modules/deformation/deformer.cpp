@@ -348,7 +348,10 @@ DeformationResult DeformationSession::run(int maxIterations, double relTolerance
 
 DeformationResult deform(const Discretization& disc, const DeformationOptions& options,
                          const std::vector<int>& handles, const Eigen::MatrixXd& targets) {
-  DeformationSession session(disc, options);
+  DeformationOptions once = options;
+  // One solve: no later regularization to reserve the system's couplings for.
+  once.reserveRegularization = options.regularization != Regularization::None;
+  DeformationSession session(disc, once);
   session.setHandles(handles);
   session.setTargets(targets);
   return session.solve();

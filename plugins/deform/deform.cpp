@@ -69,6 +69,8 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
   options.acceleration = parseAcceleration(params.getString("acceleration"));
   options.maxIterations = params.getInt("iterations");
   options.relTolerance = params.getFloat("tolerance");
+  // One solve: no later regularization to reserve the system's couplings for.
+  options.reserveRegularization = options.regularization != Regularization::None;
   if (doc.progress)
     options.progress = [&doc](int iteration, double energy, double criterion) {
       doc.progress("deform", iteration, energy, criterion);

@@ -102,5 +102,7 @@ double cgalOneShot(const std::string& path, const std::vector<int>& handles,
 
 /// Convergence: iterations and time to a relative energy gap, plain vs accelerated, and CGAL.
 void addConvergenceCases(std::vector<Case>& cases, const Sizes& sizes);
+/// oneshot/<mesh>: the diffreg tool from reading to writing against CGAL read + 1 iteration.
+void addOneShotCases(std::vector<Case>& cases, const Sizes& sizes);
 
 }  // namespace diffreg::bench

@@ -211,6 +211,12 @@ void addWeightCase(std::vector<Case>& cases, const std::string& label,
 // Builds the mesh, its discretization and the two end handles (5% deep each).
 Prepared prepareDeformation(State& s, const std::function<BenchMesh()>& make, bool weights) {
   s.mesh = make();
+  if (s.mesh.source.empty()) {
+    Prepared p;
+    p.available = false;
+    p.skipReason = sharedMeshDirectory() + ": " + s.mesh.label + " absent";
+    return p;
+  }
   s.disc = std::make_unique<Discretization>(s.mesh.mesh);
   std::tie(s.fixed, s.moved) = endHandles(s.disc->rest(), 0.05);
   s.handles = s.fixed;
@@ -349,6 +355,15 @@ Eigen::MatrixXd moveTargets(const Eigen::MatrixXd& rest, const std::vector<int>&
   return T;
 }
 
+// The shared meshes every deformation benchmark also runs on: the surfaces (also against CGAL),
+// a planar and a tetrahedral one.
+const std::vector<std::pair<std::string, std::string>> kRealMeshes = {
+    {"rocker-arm", "surface-rocker-arm.obj"}, {"armadillo", "surface-armadillo.obj"},
+    {"beetle-20k", "surface-beetle-20k.off"},  {"crocodile", "planar-crocodile.obj"},
+    {"tet-monkey", "tet-monkey.mesh"}};
+const std::vector<std::pair<std::string, std::string>> kRealSurfaces = {
+    kRealMeshes[0], kRealMeshes[1], kRealMeshes[2]};
+
 void addWeightCases(std::vector<Case>& cases, const Sizes& sizes) {
   addWeightCase(
       cases, "sphere-1k", [] { return sphereNear(1000); }, kPaper1k);
@@ -387,7 +402,68 @@ void addDeformationCases(std::vector<Case>& cases, const Sizes& sizes) {
   for (const Size& z : tetSizes)
     addDeformationCase(
         cases, "tet", z.label, [n = z.n] { return tetBoxNear(n); }, z.maxRepeats);
+  if (sizes.quick) return;
+  // The growth series to a million vertices (a handle move on the largest takes seconds).
+  addDeformationCase(
+      cases, "surface", "1m", [] { return sphereNear(1000000); }, 1);
+  // The shared real meshes (series "real": not part of the growth fits).
+  for (const auto& [label, file] : kRealMeshes)
+    addDeformationCase(cases, "real", label, shared(label, file), 3);
 }
+
+namespace {
+
+void addPeerCase(std::vector<Case>& cases, const std::string& label,
+                 const std::function<BenchMesh()>& make, int maxRepeats) {
+  auto state = std::make_shared<State>();
+  Case c;
+  c.group = "peer";
+  c.name = "peer/" + label;
+  c.maxRepeats = maxRepeats;
+  c.prepare = [state, make] { return prepareDeformation(*state, make, false); };
+  c.release = [state] { *state = State(); };
+  c.run = [state] {
+    const State& s = *state;
+    // Ours: plain ARAP (no regularization); the preprocessing includes the discretization,
+    // since CGAL computes its cotangent weights in its own set-up.
+    Timer timer;
+    Discretization disc(s.mesh.mesh);
+    const double discretization = timer.seconds();
+    DeformationOptions o;
+    o.energy = Energy::Arap;
+    o.regularization = Regularization::None;
+    // A plain ARAP session, as a user without regularization makes it: the regularizer's
+    // couplings are not reserved in the factor, so the problem is the one CGAL solves.
+    o.reserveRegularization = false;
+    DeformationSession session(disc, o);
+    session.setHandles(s.handles);
+    const double setup = timer.seconds();
+    const double first = handleMove(session, s, 0.05, 1);
+    const SolverStats factorization = session.stats();
+    const double latency1 = handleMove(session, s, 0.10, 1);
+    const double latencyLong = handleMove(session, s, 0.15, 1 + kLongMove);
+    const double oursPre = setup + first - latency1;
+    const double oursIter = (latencyLong - latency1) / kLongMove;
+
+    const Eigen::MatrixXd T = moveTargets(s.disc->rest(), s.fixed, s.moved, 0.10, s.disc->dim());
+    const PeerTimes cgal =
+        runCgalArap(s.mesh.mesh.positions(), s.mesh.mesh.elements(), s.handles, T, kLongMove);
+    const double cgalIter = (cgal.latencyMore - cgal.latency1) / kLongMove;
+    return Sample{{"ours_preprocess", oursPre},
+                  {"cgal_preprocess", cgal.preprocess},
+                  {"ours_iteration", oursIter},
+                  {"cgal_iteration", cgalIter},
+                  {"ours_move1", latency1},
+                  {"cgal_move1", cgal.latency1},
+                  {"ours_discretization", discretization},
+                  {"ours_session", setup - discretization},
+                  {"ours_symbolic", factorization.symbolicSeconds},
+                  {"ours_numeric", factorization.numericSeconds}};
+  };
+  cases.push_back(std::move(c));
+}
+
+}  // namespace
 
 void addPeerCases(std::vector<Case>& cases, const Sizes& sizes) {
   struct Size {
@@ -398,57 +474,12 @@ void addPeerCases(std::vector<Case>& cases, const Sizes& sizes) {
   const std::vector<Size> peerSizes =
       sizes.quick ? std::vector<Size>{{"2k", 2000, 0}}
                   : std::vector<Size>{{"10k", 10000, 0}, {"100k", 100000, 3}};
-  for (const Size& z : peerSizes) {
-    auto state = std::make_shared<State>();
-    Case c;
-    c.group = "peer";
-    c.name = std::string("peer/sphere-") + z.label;
-    c.maxRepeats = z.maxRepeats;
-    c.prepare = [state, n = z.n] {
-      return prepareDeformation(
-          *state, [n] { return sphereNear(n); }, false);
-    };
-    c.release = [state] { *state = State(); };
-    c.run = [state] {
-      const State& s = *state;
-      // Ours: plain ARAP (no regularization); the preprocessing includes the discretization,
-      // since CGAL computes its cotangent weights in its own set-up.
-      Timer timer;
-      Discretization disc(s.mesh.mesh);
-      const double discretization = timer.seconds();
-      DeformationOptions o;
-      o.energy = Energy::Arap;
-      o.regularization = Regularization::None;
-      // A plain ARAP session, as a user without regularization makes it: the regularizer's
-      // couplings are not reserved in the factor, so the problem is the one CGAL solves.
-      o.reserveRegularization = false;
-      DeformationSession session(disc, o);
-      session.setHandles(s.handles);
-      const double setup = timer.seconds();
-      const double first = handleMove(session, s, 0.05, 1);
-      const SolverStats factorization = session.stats();
-      const double latency1 = handleMove(session, s, 0.10, 1);
-      const double latencyLong = handleMove(session, s, 0.15, 1 + kLongMove);
-      const double oursPre = setup + first - latency1;
-      const double oursIter = (latencyLong - latency1) / kLongMove;
-
-      const Eigen::MatrixXd T = moveTargets(s.disc->rest(), s.fixed, s.moved, 0.10, s.disc->dim());
-      const PeerTimes cgal =
-          runCgalArap(s.mesh.mesh.positions(), s.mesh.mesh.elements(), s.handles, T, kLongMove);
-      const double cgalIter = (cgal.latencyMore - cgal.latency1) / kLongMove;
-      return Sample{{"ours_preprocess", oursPre},
-                    {"cgal_preprocess", cgal.preprocess},
-                    {"ours_iteration", oursIter},
-                    {"cgal_iteration", cgalIter},
-                    {"ours_move1", latency1},
-                    {"cgal_move1", cgal.latency1},
-                    {"ours_discretization", discretization},
-                    {"ours_session", setup - discretization},
-                    {"ours_symbolic", factorization.symbolicSeconds},
-                    {"ours_numeric", factorization.numericSeconds}};
-    };
-    cases.push_back(std::move(c));
-  }
+  for (const Size& z : peerSizes)
+    addPeerCase(
+        cases, std::string("sphere-") + z.label, [n = z.n] { return sphereNear(n); },
+        z.maxRepeats);
+  if (sizes.quick) return;
+  for (const auto& [label, file] : kRealSurfaces) addPeerCase(cases, label, shared(label, file), 0);
 }
 
 void runMemorySession(int vertices) {

@@ -1,0 +1,136 @@
+// One-shot cases: a whole `diffreg` run on a shared surface, from reading the file to writing the
+// result (the tool itself, started as a process: `-i MESH --handles H --filter 'deform
+// iterations=1' -o OUT.ply`), against CGAL's Surface_mesh_deformation reading the same file,
+// preprocessing and deforming once, in the same run. Handles: the 5% at both ends of the longest
+// axis, one end pulled by 10% of the length (as the peer cases).
+#include "bench.h"
+#include "core/error.h"
+#include "core/timer.h"
+#include "mesh/io.h"
+
+#include <nlohmann/json.hpp>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+extern char** environ;
+
+namespace diffreg::bench {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct OneShot {
+  std::string path, tool, handleFile, output;
+  std::vector<int> handles;
+  Eigen::MatrixXd targets;
+  fs::path dir;
+};
+
+// The diffreg tool beside this benchmark's executable.
+std::string toolPath() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : (self.parent_path() / "diffreg").string();
+}
+
+// Writes the handles as a diffreg handle file: the held end, and the pulled end with the
+// (common) translation of its vertices.
+void writeHandleFile(const OneShot& s, size_t held, const Eigen::MatrixXd& rest) {
+  nlohmann::json fixed = nlohmann::json::array(), moved = nlohmann::json::array();
+  for (size_t i = 0; i < s.handles.size(); ++i)
+    (i < held ? fixed : moved).push_back(s.handles[i]);
+  const Eigen::Index first = static_cast<Eigen::Index>(held);
+  const Eigen::RowVector3d shift = s.targets.row(first) - rest.row(s.handles[held]);
+  nlohmann::json file = {
+      {"handles",
+       {{{"name", "held"}, {"vertices", fixed}, {"translate", {0.0, 0.0, 0.0}}},
+        {{"name", "pulled"}, {"vertices", moved}, {"translate", {shift(0), shift(1), shift(2)}}}}}};
+  std::ofstream(s.handleFile) << file.dump();
+}
+
+double runTool(const OneShot& s) {
+  std::vector<std::string> args = {s.tool,     "-i",       s.path, "--handles", s.handleFile,
+                                   "--filter", "deform iterations=1", "-o", s.output, "--quiet"};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  Timer timer;
+  pid_t pid = 0;
+  if (posix_spawn(&pid, s.tool.c_str(), nullptr, nullptr, argv.data(), environ) != 0)
+    throw Error("one-shot: cannot start " + s.tool);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  const double seconds = timer.seconds();
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw Error("one-shot: " + s.tool + " failed on " + s.path);
+  return seconds;
+}
+
+void addOneShotCase(std::vector<Case>& cases, const std::string& label, const std::string& file) {
+  auto state = std::make_shared<OneShot>();
+  Case c;
+  c.group = "oneshot";
+  c.name = "oneshot/" + label;
+  c.prepare = [state, file] {
+    OneShot& s = *state;
+    Prepared p;
+    Mesh mesh;
+    if (!sharedMesh(file, mesh, s.path)) {
+      p.available = false;
+      p.skipReason = s.path + " absent";
+      return p;
+    }
+    s.tool = toolPath();
+    if (s.tool.empty() || !fs::exists(s.tool)) {
+      p.available = false;
+      p.skipReason = "the diffreg tool is not beside diffreg-bench";
+      return p;
+    }
+    const Eigen::MatrixXd rest = mesh.positions();
+    const auto [fixed, moved] = endHandles(rest, 0.05);
+    s.handles = fixed;
+    s.handles.insert(s.handles.end(), moved.begin(), moved.end());
+    s.targets = moveTargets(rest, fixed, moved, 0.10, 3);
+    s.dir = fs::temp_directory_path() / ("diffreg-bench-" + std::to_string(::getpid()));
+    fs::create_directories(s.dir);
+    s.handleFile = (s.dir / "handles.json").string();
+    s.output = (s.dir / "out.ply").string();
+    writeHandleFile(s, fixed.size(), rest);
+    p.source = s.path;
+    p.vertices = mesh.numVertices();
+    p.elements = mesh.numElements();
+    p.facts["handle_vertices"] = static_cast<double>(s.handles.size());
+    return p;
+  };
+  c.release = [state] {
+    std::error_code ec;
+    if (!state->dir.empty()) fs::remove_all(state->dir, ec);
+    *state = OneShot();
+  };
+  c.run = [state] {
+    const OneShot& s = *state;
+    const double ours = runTool(s);
+    const double cgal = cgalOneShot(s.path, s.handles, s.targets, 1);
+    return Sample{{"ours", ours}, {"cgal", cgal}};
+  };
+  cases.push_back(std::move(c));
+}
+
+}  // namespace
+
+void addOneShotCases(std::vector<Case>& cases, const Sizes& sizes) {
+  if (sizes.quick) return;
+  addOneShotCase(cases, "rocker-arm", "surface-rocker-arm.obj");
+  addOneShotCase(cases, "armadillo", "surface-armadillo.obj");
+  addOneShotCase(cases, "beetle-20k", "surface-beetle-20k.off");
+}
+
+}  // namespace diffreg::bench
