@@ -271,3 +271,28 @@ TEST_CASE("Document::load reads the mesh, the handles and the rest positions") {
   CHECK_THROWS_AS(Document::load((dir / "none.off").string()), IoError);
   fs::remove_all(dir);
 }
+
+TEST_CASE("Document::restDiscretization is built once per rest shape", "[pipeline]") {
+  Document doc;
+  doc.mesh = makeRectangle(2.0, 1.0, 4, 2);
+  doc.rest = doc.mesh.positions();
+  const Discretization* first = &doc.restDiscretization();
+  CHECK(&doc.restDiscretization() == first);
+  CHECK(first->numVertices() == doc.mesh.numVertices());
+  SECTION("deformed positions keep it") {
+    Eigen::MatrixXd p = doc.mesh.positions();
+    p(3, 0) += 0.25;
+    doc.mesh.setPositions(p);
+    CHECK(&doc.restDiscretization() == first);
+    const Document copy = doc;  // copies share it
+    CHECK(&copy.restDiscretization() == first);
+  }
+  SECTION("a new rest shape or new elements build it again") {
+    doc.rest(3, 0) += 0.25;
+    const Discretization& moved = doc.restDiscretization();
+    CHECK(moved.rest()(3, 0) == doc.rest(3, 0));
+    doc.mesh = makeRectangle(2.0, 1.0, 2, 2);
+    doc.rest = doc.mesh.positions();
+    CHECK(doc.restDiscretization().numVertices() == doc.mesh.numVertices());
+  }
+}

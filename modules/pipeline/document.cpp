@@ -13,4 +13,17 @@ Document Document::load(const std::string& meshPath, const std::string& handlesP
   return doc;
 }
 
+const Discretization& Document::restDiscretization() const {
+  const RestCache* c = restCache_.get();
+  const bool valid = c && c->kind == mesh.kind() && c->rest.rows() == rest.rows() &&
+                     c->rest.cols() == rest.cols() && c->rest == rest &&
+                     c->elements.rows() == mesh.numElements() && c->elements == mesh.elements();
+  if (!valid) {
+    const Eigen::MatrixXi elements = mesh.elements();
+    restCache_ = std::make_shared<const RestCache>(
+        RestCache{mesh.kind(), rest, elements, Discretization(mesh.kind(), rest, elements)});
+  }
+  return restCache_->disc;
+}
+
 }  // namespace diffreg

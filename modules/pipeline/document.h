@@ -1,12 +1,14 @@
 // A Document is what a pipeline works on: a mesh, its handles and its rest positions.
 #pragma once
 
+#include "discretization/discretization.h"
 #include "handles/handles.h"
 #include "mesh/mesh.h"
 
 #include <Eigen/Core>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 
 namespace diffreg {
@@ -35,8 +37,22 @@ struct Document {
     return outputFile ? outputFile(path) : path;
   }
 
+  /// The discretization of the rest shape (`rest`, the mesh's elements and kind): built on the
+  /// first call and again only when one of those has changed since, so that the filters of a
+  /// pipeline share it.
+  const Discretization& restDiscretization() const;
+
   /// Reads a mesh (and optionally a handle file) and records the rest positions.
   static Document load(const std::string& meshPath, const std::string& handlesPath = "");
+
+ private:
+  struct RestCache {
+    MeshKind kind;
+    Eigen::MatrixXd rest;
+    Eigen::MatrixXi elements;
+    Discretization disc;
+  };
+  mutable std::shared_ptr<const RestCache> restCache_;  // immutable once built: copies share it
 };
 
 }  // namespace diffreg

@@ -58,7 +58,7 @@ std::vector<std::string> DeformFilter::produces(const ParamMap&) const {
 }
 
 FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
-  const Discretization disc = restDiscretization(doc);
+  const Discretization& disc = doc.restDiscretization();
   DeformationOptions options;
   options.energy = parseEnergy(params.getString("energy"));
   options.regularization = parseRegularization(params.getString("regularization"));

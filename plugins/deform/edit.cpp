@@ -16,10 +16,6 @@ Edit editOf(const HandleSet& handles) {
   return edit;
 }
 
-Discretization restDiscretization(const Document& doc) {
-  return Discretization(doc.mesh.kind(), doc.rest, doc.mesh.elements());
-}
-
 Eigen::MatrixXd toMeshPositions(const Document& doc, const Eigen::MatrixXd& positions) {
   Eigen::MatrixXd out = doc.rest;
   out.leftCols(positions.cols()) = positions;

@@ -19,9 +19,6 @@ struct Edit {
 };
 Edit editOf(const HandleSet& handles);
 
-/// The discretization of the document's rest shape (the positions the pipeline loaded).
-Discretization restDiscretization(const Document& doc);
-
 /// The mesh positions (n x 3) for deformed positions n x d: planar meshes keep their rest z.
 Eigen::MatrixXd toMeshPositions(const Document& doc, const Eigen::MatrixXd& positions);
 

@@ -63,9 +63,9 @@ std::vector<std::string> MeasureFilter::produces(const ParamMap&) const {
 
 FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
   const std::string restPath = params.getString("rest");
-  const Discretization disc =
-      restPath.empty() ? restDiscretization(doc)
-                       : Discretization(readMatching(doc, restPath, "rest", true));
+  std::optional<Discretization> restFromFile;
+  if (!restPath.empty()) restFromFile.emplace(readMatching(doc, restPath, "rest", true));
+  const Discretization& disc = restFromFile ? *restFromFile : doc.restDiscretization();
   std::string energyName = params.getString("energy");
   if (energyName == "auto") energyName = stateOr(doc, "deform.energy", "arap");
   const Energy energy = parseEnergy(energyName);
@@ -91,7 +91,7 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
     if (mode == Regularization::None) {
       reference = positions;  // the deformation is its own unregularized solve
     } else {
-      const Discretization restDisc = restDiscretization(doc);
+      const Discretization& restDisc = doc.restDiscretization();
       DeformationOptions options;
       options.energy = parseEnergy(doc.state.at("deform.energy"));
       options.localStep = parseLocalStep(stateOr(doc, "deform.local_step", "exact"));

@@ -41,7 +41,7 @@ std::vector<std::string> DiffuseWeightsFilter::produces(const ParamMap&) const {
 }
 
 FilterResult DiffuseWeightsFilter::apply(Document& doc, const ParamMap& params) const {
-  const Discretization disc(doc.mesh.kind(), doc.rest, doc.mesh.elements());  // rest shape
+  const Discretization& disc = doc.restDiscretization();
   DiffusionWeights session(disc);
   session.setHandles(doc.handles);
   DiffusionParams p;
