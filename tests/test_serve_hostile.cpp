@@ -48,6 +48,17 @@ struct Server {
   std::unique_ptr<HttpServer> server;
   std::unique_ptr<httplib::Client> client;
   int port = 0;
+
+  /// A raw TCP connection to the server (for clients that misbehave below HTTP).
+  int connectRaw() const {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<uint16_t>(port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
+    return fd;
+  }
 };
 
 const std::string kHandle = R"({"vertices": [0, 33], "name": "left"})";
@@ -113,12 +124,7 @@ TEST_CASE("serve: stalled connections do not block other clients", "[serve][host
   Server s;
   std::vector<int> stalled;
   for (int i = 0; i < 12; ++i) {
-    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(static_cast<uint16_t>(s.port));
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
+    const int fd = s.connectRaw();
     const char partial[] = "GET /api/state HTTP/1.1\r\nHo";
     REQUIRE(::send(fd, partial, sizeof partial - 1, 0) > 0);
     stalled.push_back(fd);
@@ -136,12 +142,7 @@ TEST_CASE("serve: a client that trickles its request is cut off at the deadline"
   ServerOptions options;
   options.requestSeconds = 1.0;
   Server s("bar.obj", options);
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<uint16_t>(s.port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0);
+  const int fd = s.connectRaw();
   const std::string head = "GET /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
   REQUIRE(::send(fd, head.data(), head.size(), MSG_NOSIGNAL) > 0);
   // One byte every 0.2 s (each read well within httplib's one-second read timeout) for up to
