@@ -48,37 +48,33 @@ Eigen::MatrixXd Discretization::restFrame(int e) const {
   return Eigen::Matrix3d::Identity() - n * n.transpose();
 }
 
-void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
-                           const Eigen::MatrixXi& elements) {
-  kind_ = kind;
-  dim_ = kind == MeshKind::Planar ? 2 : 3;
-  const int n = static_cast<int>(positions.rows());
-  const int m = static_cast<int>(elements.rows());
-  const int k = kind == MeshKind::Tet ? 4 : 3;
+namespace {
+
+void checkElements(MeshKind kind, const Eigen::MatrixXd& positions,
+                   const Eigen::MatrixXi& elements, int k) {
+  const Eigen::Index n = positions.rows(), m = elements.rows();
   if (positions.cols() < 3 && kind != MeshKind::Planar)
     throw InvalidMesh("discretization: positions need 3 columns");
   if (elements.cols() != k)
     throw InvalidMesh("discretization: " + std::string(toString(kind)) + " elements need " +
                       std::to_string(k) + " vertices each");
   if (m == 0) throw InvalidMesh("discretization: the mesh has no elements");
-  for (int e = 0; e < m; ++e)
+  for (Eigen::Index e = 0; e < m; ++e)
     for (int i = 0; i < k; ++i)
       if (elements(e, i) < 0 || elements(e, i) >= n)
         throw InvalidMesh("discretization: element " + std::to_string(e) + " has vertex index " +
                           std::to_string(elements(e, i)) + " out of range [0, " +
                           std::to_string(n) + ")");
-  rest_ = positions.leftCols(dim_);
-  elements_ = elements;
-  Eigen::MatrixXd P3 = Eigen::MatrixXd::Zero(n, 3);
-  P3.leftCols(std::min<int>(3, static_cast<int>(positions.cols()))) =
-      positions.leftCols(std::min<int>(3, static_cast<int>(positions.cols())));
+}
 
-  // Facets (for adjacency) and unique edges (for the mean edge length), by sorting.
-  const int facetSize = k - 1;
-  std::vector<FacetRecord> facetRecords;
-  facetRecords.reserve(static_cast<size_t>(m) * k);
+// The facet records of every element (for adjacency), sorted, and the mean length of the
+// unique edges (for triangles the facets are the edges).
+double facetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements, int k,
+                         std::vector<FacetRecord>& records) {
+  const int m = static_cast<int>(elements.rows()), facetSize = k - 1;
+  records.reserve(static_cast<size_t>(m) * k);
   std::vector<std::pair<int, int>> edges;
-  edges.reserve(static_cast<size_t>(m) * (k == 4 ? 6 : 3));
+  if (k == 4) edges.reserve(static_cast<size_t>(m) * 6);
   for (int e = 0; e < m; ++e) {
     for (int i = 0; i < k; ++i) {
       FacetRecord r{{-1, -1, -1}, e};
@@ -86,35 +82,82 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
       for (int j = 0; j < k; ++j)
         if (j != i) r.key[c++] = elements(e, j);
       std::sort(r.key.begin(), r.key.begin() + facetSize);
-      facetRecords.push_back(r);
-      for (int j = i + 1; j < k; ++j) {
-        const int a = elements(e, i), b = elements(e, j);
-        edges.emplace_back(std::min(a, b), std::max(a, b));
-      }
+      records.push_back(r);
+      if (k == 4)
+        for (int j = i + 1; j < k; ++j) {
+          const int a = elements(e, i), b = elements(e, j);
+          edges.emplace_back(std::min(a, b), std::max(a, b));
+        }
     }
   }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::sort(records.begin(), records.end());
+  if (k == 3) {
+    for (size_t i = 0; i < records.size(); ++i)
+      if (i == 0 || records[i].key != records[i - 1].key)
+        edges.emplace_back(records[i].key[0], records[i].key[1]);
+  } else {
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  }
   double edgeSum = 0.0;
   for (const auto& [a, b] : edges) edgeSum += (P3.row(a) - P3.row(b)).norm();
-  meanEdge_ = edgeSum / static_cast<double>(edges.size());
-  const double tinyMeasure = 1e-14 * std::pow(meanEdge_, kind == MeshKind::Tet ? 3 : 2);
+  return edgeSum / static_cast<double>(edges.size());
+}
 
-  // Per-element gradients and measures. Edge vectors E = [p1-p0, p2-p0 (, p3-p0)]; the hat
-  // gradients g_1..g_{k-1} are the columns of E (E^T E)^-1 (the dual basis in the element's
-  // span), g_0 = -sum of the others. For tets E is square and this is E^-T.
+// Interior facets from the sorted records: records with equal keys belong to neighbouring
+// elements; every pair of elements on a facet (exactly one pair on a manifold mesh).
+void interiorFacets(const Eigen::MatrixXd& P3, const std::vector<FacetRecord>& records,
+                    int facetSize,
+                    std::vector<Facet>& facets) {
+  facets.clear();
+  for (size_t i = 0; i < records.size();) {
+    size_t j = i + 1;
+    while (j < records.size() && records[j].key == records[i].key) ++j;
+    const auto& key = records[i].key;
+    double c;
+    if (facetSize == 2) {
+      c = (P3.row(key[0]) - P3.row(key[1])).norm();
+    } else {
+      const Eigen::Vector3d a = (P3.row(key[1]) - P3.row(key[0])).transpose();
+      const Eigen::Vector3d b = (P3.row(key[2]) - P3.row(key[0])).transpose();
+      c = 0.5 * a.cross(b).norm();
+    }
+    for (size_t a = i; a < j; ++a)
+      for (size_t b = a + 1; b < j; ++b) {
+        Facet f;
+        f.k = records[a].element;
+        f.l = records[b].element;
+        f.c = c;
+        f.size = facetSize;
+        for (int v = 0; v < facetSize; ++v) f.vertices[v] = key[v];
+        facets.push_back(f);
+      }
+    i = j;
+  }
+}
+
+}  // namespace
+
+// Per-element hat gradients, measures, normals, the lumped mass and the stiffness K for
+// elements of K vertices. Edge vectors E = [p1-p0, p2-p0 (, p3-p0)]; the gradients g_1..g_{K-1}
+// are the columns of E (E^T E)^-1 (the dual basis in the element's span), g_0 = -sum of the
+// others. For tets E is square and this is E^-T. Fixed sizes: no allocation per element.
+template <int K>
+void Discretization::buildElements(const Eigen::MatrixXd& P3, double tinyMeasure) {
+  const int n = static_cast<int>(P3.rows()), m = static_cast<int>(elements_.rows());
   measures_.resize(m);
-  grads_.resize(static_cast<Eigen::Index>(m) * k, dim_);
-  if (kind == MeshKind::Surface) normals_.resize(m, 3);
+  grads_.resize(static_cast<Eigen::Index>(m) * K, dim_);
+  if (kind_ == MeshKind::Surface) normals_.resize(m, 3);
   std::vector<Eigen::Triplet<double>> kTriplets;
-  kTriplets.reserve(static_cast<size_t>(m) * k * k);
+  kTriplets.reserve(static_cast<size_t>(m) * K * K);
   mass_ = Eigen::VectorXd::Zero(n);
+  Eigen::Matrix<double, 3, K - 1> E;
+  Eigen::Matrix<double, K, 3> g;
   for (int e = 0; e < m; ++e) {
-    Eigen::Matrix<double, 3, Eigen::Dynamic> E(3, k - 1);
-    for (int j = 1; j < k; ++j)
-      E.col(j - 1) = (P3.row(elements(e, j)) - P3.row(elements(e, 0))).transpose();
+    for (int j = 1; j < K; ++j)
+      E.col(j - 1) = (P3.row(elements_(e, j)) - P3.row(elements_(e, 0))).transpose();
     double measure;
-    if (k == 4) {
+    if constexpr (K == 4) {
       measure = E.determinant() / 6.0;
       if (measure <= tinyMeasure)
         throw InvalidMesh("discretization: tet " + std::to_string(e) +
@@ -125,61 +168,35 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
       if (measure <= tinyMeasure)
         throw InvalidMesh("discretization: triangle " + std::to_string(e) +
                           " is degenerate (zero area)");
-      if (kind == MeshKind::Surface) normals_.row(e) = cr.normalized().transpose();
+      if (kind_ == MeshKind::Surface) normals_.row(e) = cr.normalized().transpose();
     }
-    const Eigen::MatrixXd dual = E * (E.transpose() * E).inverse();  // 3 x (k-1)
-    Eigen::MatrixXd g(k, 3);
-    g.bottomRows(k - 1) = dual.transpose();
-    g.row(0) = -g.bottomRows(k - 1).colwise().sum();
-    grads_.block(static_cast<Eigen::Index>(e) * k, 0, k, dim_) = g.leftCols(dim_);
+    const Eigen::Matrix<double, K - 1, K - 1> gram = E.transpose() * E;
+    g.template bottomRows<K - 1>() = (E * gram.inverse()).transpose();
+    g.row(0) = -g.template bottomRows<K - 1>().colwise().sum();
+    grads_.block(static_cast<Eigen::Index>(e) * K, 0, K, dim_) = g.leftCols(dim_);
     measures_(e) = measure;
-    const Eigen::MatrixXd Ke = measure * g * g.transpose();
-    for (int i = 0; i < k; ++i) {
-      mass_(elements(e, i)) += measure / k;
-      for (int j = 0; j < k; ++j)
-        kTriplets.emplace_back(elements(e, i), elements(e, j), Ke(i, j));
+    const Eigen::Matrix<double, K, K> Ke = measure * g * g.transpose();
+    for (int i = 0; i < K; ++i) {
+      mass_(elements_(e, i)) += measure / K;
+      for (int j = 0; j < K; ++j)
+        kTriplets.emplace_back(elements_(e, i), elements_(e, j), Ke(i, j));
     }
   }
   K_.resize(n, n);
   K_.setFromTriplets(kTriplets.begin(), kTriplets.end());
   K_.makeCompressed();
+}
 
-  // Interior facets: records with equal keys belong to neighbouring elements.
-  std::sort(facetRecords.begin(), facetRecords.end());
-  facets_.clear();
-  for (size_t i = 0; i < facetRecords.size();) {
-    size_t j = i + 1;
-    while (j < facetRecords.size() && facetRecords[j].key == facetRecords[i].key) ++j;
-    const auto& key = facetRecords[i].key;
-    double c;
-    if (facetSize == 2) {
-      c = (P3.row(key[0]) - P3.row(key[1])).norm();
-    } else {
-      const Eigen::Vector3d a = (P3.row(key[1]) - P3.row(key[0])).transpose();
-      const Eigen::Vector3d b = (P3.row(key[2]) - P3.row(key[0])).transpose();
-      c = 0.5 * a.cross(b).norm();
-    }
-    // Every pair of elements on the facet (exactly one pair on a manifold mesh).
-    for (size_t a = i; a < j; ++a)
-      for (size_t b = a + 1; b < j; ++b) {
-        Facet f;
-        f.k = facetRecords[a].element;
-        f.l = facetRecords[b].element;
-        f.c = c;
-        f.size = facetSize;
-        for (int v = 0; v < facetSize; ++v) f.vertices[v] = key[v];
-        facets_.push_back(f);
-      }
-    i = j;
-  }
-
-  // Referenced vertices, components and the bounding box of the referenced vertices.
+// Referenced vertices, components and the bounding box of the referenced vertices.
+void Discretization::buildComponents(const Eigen::MatrixXd& P3) {
+  const int n = static_cast<int>(P3.rows()), m = static_cast<int>(elements_.rows());
+  const int k = static_cast<int>(elements_.cols());
   active_.assign(n, false);
   DisjointSets sets(n);
   for (int e = 0; e < m; ++e)
     for (int i = 0; i < k; ++i) {
-      active_[elements(e, i)] = true;
-      sets.unite(elements(e, 0), elements(e, i));
+      active_[elements_(e, i)] = true;
+      sets.unite(elements_(e, 0), elements_(e, i));
     }
   component_.assign(n, -1);
   std::vector<int> rootId(n, -1);
@@ -194,6 +211,29 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
     hi = hi.cwiseMax(P3.row(v).transpose());
   }
   diagonal_ = (hi - lo).norm();
+}
+
+void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
+                           const Eigen::MatrixXi& elements) {
+  kind_ = kind;
+  dim_ = kind == MeshKind::Planar ? 2 : 3;
+  const int k = kind == MeshKind::Tet ? 4 : 3;
+  checkElements(kind, positions, elements, k);
+  rest_ = positions.leftCols(dim_);
+  elements_ = elements;
+  const int cols = std::min<int>(3, static_cast<int>(positions.cols()));
+  Eigen::MatrixXd P3 = Eigen::MatrixXd::Zero(positions.rows(), 3);
+  P3.leftCols(cols) = positions.leftCols(cols);
+
+  std::vector<FacetRecord> records;
+  meanEdge_ = facetsAndMeanEdge(P3, elements, k, records);
+  const double tinyMeasure = 1e-14 * std::pow(meanEdge_, kind == MeshKind::Tet ? 3 : 2);
+  if (k == 4)
+    buildElements<4>(P3, tinyMeasure);
+  else
+    buildElements<3>(P3, tinyMeasure);
+  interiorFacets(P3, records, k - 1, facets_);
+  buildComponents(P3);
 }
 
 }  // namespace diffreg

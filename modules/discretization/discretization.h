@@ -78,6 +78,9 @@ class Discretization {
 
  private:
   void build(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements);
+  template <int K>
+  void buildElements(const Eigen::MatrixXd& P3, double tinyMeasure);
+  void buildComponents(const Eigen::MatrixXd& P3);
 
   MeshKind kind_ = MeshKind::Surface;
   int dim_ = 3;

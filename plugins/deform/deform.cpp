@@ -1,5 +1,7 @@
 #include "deform/deform.h"
 
+#include "core/timer.h"
+
 #include "deform/edit.h"
 #include "deform/measure.h"
 #include "deformation/deformer.h"
@@ -58,7 +60,9 @@ std::vector<std::string> DeformFilter::produces(const ParamMap&) const {
 }
 
 FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
-  const Discretization& disc = doc.restDiscretization();
+  Timer timer;
+  const Discretization& disc = doc.restDiscretization();  // built here unless cached
+  const double discretization = timer.seconds();
   DeformationOptions options;
   options.energy = parseEnergy(params.getString("energy"));
   options.regularization = parseRegularization(params.getString("regularization"));
@@ -76,14 +80,18 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
       doc.progress("deform", iteration, energy, criterion);
     };
 
+  timer.reset();
   DeformationSession session(disc, options);
   const Edit edit = editOf(doc.handles);
   session.setHandles(edit.vertices);
   session.setTargets(edit.targets);
+  const double setup = timer.seconds();
   const DeformationResult result = session.solve();
 
+  timer.reset();
   doc.mesh.setPositions(toMeshPositions(doc, result.positions));
   writeElementMaps(doc, disc, options.energy, result.positions);
+  const double maps = timer.seconds();
   for (const auto& [key, value] : params.text()) doc.state["deform." + key] = value;
 
   FilterResult out;
@@ -97,7 +105,10 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
               {"accelerated_iterations", result.accelerated},
               {"converged", result.converged},
               {"criterion", result.criterion},
+              {"discretization_seconds", discretization},
+              {"setup_seconds", setup},
               {"iteration_seconds", result.seconds},
+              {"maps_seconds", maps},
               {"energies", result.energies}};
   if (options.regularization == Regularization::Uniform) out.data["beta"] = options.beta;
   return out;

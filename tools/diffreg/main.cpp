@@ -12,6 +12,7 @@
 #include "serve.h"
 #include "core/error.h"
 #include "core/log.h"
+#include "core/timer.h"
 #include "mesh/io.h"
 #include "pipeline/mlx.h"
 #include "pipeline/pipeline.h"
@@ -110,6 +111,7 @@ std::string describeFilters(const Registry& registry) {
 }
 
 int runPipeline(const po::variables_map& vm) {
+  const Timer total;
   if (!vm.count("input")) throw UsageError("missing -i IN (see diffreg --help)");
   if (!vm.count("output")) throw UsageError("missing -o OUT (see diffreg --help)");
   const std::string input = vm["input"].as<std::string>();
@@ -140,7 +142,9 @@ int runPipeline(const po::variables_map& vm) {
         throw UsageError("output '" + targets[i] + "' given twice (also as '" + targets[j] + "')");
   }
 
+  Timer phase;
   Document doc = Document::load(input, handles);
+  const double readSeconds = phase.seconds();
   for (const auto& output : outputs) checkWritable(output, doc.mesh.kind());
   pipeline.check(doc);
   // Files the filters write (render's PNG) are staged with the outputs: all or nothing.
@@ -149,9 +153,17 @@ int runPipeline(const po::variables_map& vm) {
   ProgressPrinter printer(vm["progress-after"].as<double>());
   doc.progress = [&printer](const std::string& filter, int iteration, double energy,
                             double criterion) { printer(filter, iteration, energy, criterion); };
-  const nlohmann::json report = pipeline.run(doc);
+  phase.reset();
+  nlohmann::json report = pipeline.run(doc);
+  const double filterSeconds = phase.seconds();
 
+  phase.reset();
   for (const auto& output : outputs) writeMesh(staged.stage(output), doc.mesh);
+  // Where the time of the run went (the report itself and the final renames are not counted).
+  report["seconds"] = {{"read", readSeconds},
+                       {"filters", filterSeconds},
+                       {"write", phase.seconds()},
+                       {"total", total.seconds()}};
   if (!reportPath.empty()) staged.stageText(reportPath, reportText(report));
   staged.commit();
   info("wrote " + join(outputs, ", ") + (reportPath.empty() ? "" : " and " + reportPath));
