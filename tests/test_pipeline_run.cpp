@@ -177,7 +177,7 @@ TEST_CASE("The built-in registry holds diffuse_weights with its parameter table"
   const Filter& filter = registry.get("diffuse_weights");
   CHECK(filter.needsHandles());
   const auto specs = filter.params();
-  REQUIRE(specs.size() == 4);
+  REQUIRE(specs.size() == 5);
   CHECK(specs[0].name == "t");
   CHECK(specs[0].type == ParamType::Float);
   CHECK(specs[1].name == "t_unit");
@@ -186,15 +186,20 @@ TEST_CASE("The built-in registry holds diffuse_weights with its parameter table"
   CHECK(specs[2].choices == std::vector<std::string>{"first", "second", "implicit_euler"});
   CHECK(specs[3].name == "steps");
   CHECK(specs[3].type == ParamType::Int);
+  CHECK(specs[4].name == "solve");
+  CHECK(specs[4].choices == std::vector<std::string>{"pcg", "direct"});
   const ParamMap defaults("diffuse_weights", specs, {});
-  CHECK(defaults.text() ==
-        std::map<std::string, std::string>{
-            {"t", "0.01"}, {"t_unit", "diagonal"}, {"order", "second"}, {"steps", "100"}});
+  CHECK(defaults.text() == std::map<std::string, std::string>{{"t", "0.01"},
+                                                              {"t_unit", "diagonal"},
+                                                              {"order", "second"},
+                                                              {"steps", "100"},
+                                                              {"solve", "pcg"}});
   CHECK(filter.produces(defaults) == std::vector<std::string>{prop::weight});
   CHECK(filter.description().find("Computer-Aided Design") != std::string::npos);
   // Every parameter choice maps onto the library's own names.
   for (const auto& unit : specs[1].choices) CHECK(toString(parseTimeUnit(unit)) == unit);
   for (const auto& order : specs[2].choices) CHECK(toString(parseDiffusionOrder(order)) == order);
+  for (const auto& solve : specs[4].choices) CHECK(toString(parseDiffusionSolve(solve)) == solve);
 }
 
 TEST_CASE("diffuse_weights in a pipeline equals the one-shot library function") {
@@ -237,7 +242,40 @@ TEST_CASE("diffuse_weights in a pipeline equals the one-shot library function") 
     CHECK(entry["min"].get<double>() == Approx(x.minCoeff()));
     CHECK(entry["max"].get<double>() == Approx(x.maxCoeff()));
     CHECK(entry["mean"].get<double>() == Approx(x.mean()));
+    // The second order runs CG against its preconditioner (solve=pcg, the default).
+    if (order == "second") {
+      CHECK(entry["params"]["solve"] == "pcg");
+      CHECK(entry["cg_iterations"].get<int>() >= 1);
+      CHECK(entry["cg_iterations"].get<int>() <= 15);
+      CHECK(entry["cg_residual"].get<double>() <= kDiffusionCgTolerance);
+    } else {
+      CHECK(entry["cg_iterations"] == 0);
+    }
   }
+}
+
+TEST_CASE("diffuse_weights solve=direct gives the pcg weights without CG") {
+  Document doc;
+  doc.mesh = makeRectangle(2.0, 1.0, 8, 4);
+  doc.rest = doc.mesh.positions();
+  doc.handles = edgeHandles(doc.mesh, 2.0);
+  Eigen::VectorXd x[2];
+  nlohmann::json entries[2];
+  const std::string solves[] = {"pcg", "direct"};
+  for (int i = 0; i < 2; ++i) {
+    Document work = doc;
+    Pipeline pipeline;
+    pipeline.add("diffuse_weights", {{"t", "0.05"}, {"solve", solves[i]}});
+    entries[i] = pipeline.run(work)["filters"][0];
+    x[i] = work.mesh.vertexScalar(prop::weight);
+  }
+  CHECK((x[0] - x[1]).cwiseAbs().maxCoeff() <= 1e-9);
+  CHECK(entries[0]["cg_iterations"].get<int>() >= 1);
+  CHECK(entries[1]["cg_iterations"] == 0);
+  CHECK(entries[1]["cg_residual"] == 0.0);
+  CHECK(entries[1]["solves"] == 1);
+  // Both factor once: pcg its preconditioner (1-ring pattern), direct the 2-ring matrix.
+  for (const auto& entry : entries) CHECK(entry["numeric"] == 1);
 }
 
 TEST_CASE("diffuse_weights without handles fails in check, before any work") {

@@ -131,6 +131,13 @@ TEST_CASE("serve API: load, handles, drag and parameters reuse factorizations", 
     CHECK(Fixture::count(state, "deformation", "numeric") > 0);
     CHECK(Fixture::count(state, "deformation", "symbolic") == 0);
 
+    // The direct second-order solve has another pattern than pcg's preconditioner.
+    state = f.ok("PATCH", "/api/params", R"({"solve": "direct"})");
+    CHECK(state.at("params").at("solve") == "direct");
+    CHECK(Fixture::count(state, "weights", "symbolic") > 0);
+    state = f.ok("PATCH", "/api/params", R"({"solve": "pcg"})");
+    CHECK(Fixture::count(state, "weights", "symbolic") > 0);
+
     state = f.ok("PATCH", "/api/params", R"({"regularization": "uniform", "beta": 0.3})");
     CHECK(Fixture::count(state, "deformation", "numeric") > 0);
     CHECK(Fixture::count(state, "deformation", "symbolic") == 0);
@@ -227,6 +234,7 @@ TEST_CASE("serve API: bad requests get a 4xx and leave the session unchanged", "
       {"PATCH", "/api/params", R"({"t": -1})", 422},
       {"PATCH", "/api/params", R"({"iterations": 0})", 422},
       {"PATCH", "/api/params", R"({"energy": "elastic"})", 422},
+      {"PATCH", "/api/params", R"({"solve": "lu"})", 422},
       {"PATCH", "/api/params", R"({"beta": "high"})", 400},
       {"PATCH", "/api/params", "{not json", 400},  // malformed JSON
       {"PATCH", "/api/params", "[1, 2]", 400},

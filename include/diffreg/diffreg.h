@@ -19,7 +19,8 @@
 ///   `OpenMesh::TriMesh_ArrayKernelT<Traits>` and leave its other properties alone.
 /// - **Editing sessions** that keep their factorizations between edits and count the work
 ///   (SolverStats): diffreg::DiffusionWeights (a new t or range costs one numeric
-///   factorization, a new magnitude one solve) and diffreg::DeformationSession (new targets
+///   factorization, a new magnitude one solve; the second order's solve is a few conjugate
+///   gradient iterations against one factor) and diffreg::DeformationSession (new targets
 ///   cost one solve per iteration), both on a diffreg::Discretization of a diffreg::Mesh
 ///   (diffreg::fromOpenMesh, diffreg::readMesh or the shapes of mesh/shapes.h).
 /// - **Pipelines of filters**: diffreg::Pipeline with filter names and parameter maps from

@@ -142,6 +142,7 @@ json paramsJson(const EditParams& p) {
           {"t", p.diffusion.t},
           {"unit", toString(p.diffusion.unit)},
           {"steps", p.diffusion.steps},
+          {"solve", toString(p.diffusion.solve)},
           {"iterations", p.iterations},
           {"tolerance", p.tolerance},
           {"local_step", toString(p.localStep)},
@@ -467,8 +468,8 @@ ApiResponse Api::edit(const ApiRequest& r) {
     if (p == "/api/params") {
       allowOnly(body,
                 {"energy", "regularization", "beta", "scheme", "order", "t", "unit", "steps",
-                 "iterations", "tolerance", "local_step", "acceleration", "sigma", "rbf_distance",
-                 "reference", "continue_drags"},
+                 "solve", "iterations", "tolerance", "local_step", "acceleration", "sigma",
+                 "rbf_distance", "reference", "continue_drags"},
                 "params");
       EditParams& q = want.params;
       if (body.contains("energy")) q.energy = parseEnergy(text(body, "energy"));
@@ -480,6 +481,7 @@ ApiResponse Api::edit(const ApiRequest& r) {
       if (body.contains("t")) q.diffusion.t = number(body, "t");
       if (body.contains("unit")) q.diffusion.unit = parseTimeUnit(text(body, "unit"));
       if (body.contains("steps")) q.diffusion.steps = integer(body.at("steps"), "'steps'");
+      if (body.contains("solve")) q.diffusion.solve = parseDiffusionSolve(text(body, "solve"));
       if (body.contains("iterations"))
         q.iterations = integer(body.at("iterations"), "'iterations'");
       if (body.contains("tolerance")) q.tolerance = number(body, "tolerance");

@@ -68,7 +68,7 @@ bool sameTargets(const EditState& a, const EditState& b) {
 
 bool sameDiffusion(const DiffusionParams& a, const DiffusionParams& b) {
   return a.t == b.t && a.unit == b.unit && a.order == b.order && a.steps == b.steps &&
-         a.clip == b.clip;
+         a.solve == b.solve && a.clip == b.clip;
 }
 
 bool sameRbf(const RbfSettings& a, const RbfSettings& b) {

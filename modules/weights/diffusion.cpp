@@ -1,6 +1,8 @@
 #include "weights/diffusion.h"
 
 #include "core/error.h"
+#include "core/log.h"
+#include "core/timer.h"
 
 #include <algorithm>
 #include <cmath>
@@ -28,6 +30,16 @@ const char* toString(TimeUnit unit) {
   return "?";
 }
 
+const char* toString(DiffusionSolve solve) {
+  switch (solve) {
+    case DiffusionSolve::Pcg:
+      return "pcg";
+    case DiffusionSolve::Direct:
+      return "direct";
+  }
+  return "?";
+}
+
 DiffusionOrder parseDiffusionOrder(const std::string& name) {
   for (auto o : {DiffusionOrder::First, DiffusionOrder::Second, DiffusionOrder::ImplicitEuler})
     if (name == toString(o)) return o;
@@ -39,6 +51,12 @@ TimeUnit parseTimeUnit(const std::string& name) {
   for (auto u : {TimeUnit::Absolute, TimeUnit::Diagonal, TimeUnit::MeanEdge2})
     if (name == toString(u)) return u;
   throw InvalidParameter("time unit '" + name + "' is not one of: absolute, diagonal, mean_edge2");
+}
+
+DiffusionSolve parseDiffusionSolve(const std::string& name) {
+  for (auto s : {DiffusionSolve::Pcg, DiffusionSolve::Direct})
+    if (name == toString(s)) return s;
+  throw InvalidParameter("second-order solve '" + name + "' is not one of: pcg, direct");
 }
 
 DiffusionWeights::DiffusionWeights(const Discretization& disc, SolverBackend backend)
@@ -112,7 +130,7 @@ void DiffusionWeights::setParams(const DiffusionParams& params) {
     throw InvalidParameter("weights: steps must be >= 1 (got " + std::to_string(params.steps) +
                            ")");
   if (params.t != params_.t || params.unit != params_.unit || params.order != params_.order ||
-      params.steps != params_.steps)
+      params.steps != params_.steps || params.solve != params_.solve)
     matrixDirty_ = true;
   params_ = params;
 }
@@ -173,7 +191,8 @@ void DiffusionWeights::preparePartition() {
   partitionDirty_ = false;
 }
 
-// The system matrix of docs/method.md, "Diffused weights" for the current order, t and r.
+// The matrix factored for the current order, t and r (docs/method.md, "Diffused weights"): the
+// system itself, or for the second order by `pcg` its preconditioner's factor N + t/sqrt(2) K_FF.
 void DiffusionWeights::prepareMatrix(bool analyzeAgain) {
   const Eigen::VectorXd& M = disc_.lumpedMass();
   const Eigen::VectorXd r = rangeField();
@@ -194,6 +213,10 @@ void DiffusionWeights::prepareMatrix(bool analyzeAgain) {
       A = Nmat + (t / params_.steps) * KFF_;
       break;
     case DiffusionOrder::Second:
+      if (params_.solve == DiffusionSolve::Pcg) {
+        A = Nmat + (t / std::sqrt(2.0)) * KFF_;
+        break;
+      }
       if (productDirty_) {
         KNK_ = SparseMatrix(KFF_ * N_.cwiseInverse().asDiagonal()) * KFF_;
         productDirty_ = false;
@@ -213,6 +236,7 @@ Eigen::VectorXd DiffusionWeights::solve() {
     newPattern = true;
   }
   if (matrixDirty_ || newPattern) prepareMatrix(newPattern);
+  lastSolve_ = DiffusionSolveInfo();
 
   // Dirichlet values g: m_j on handle j, 0 on unreferenced vertices.
   Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
@@ -225,7 +249,8 @@ Eigen::VectorXd DiffusionWeights::solve() {
     case DiffusionOrder::First: x = solver_.solve(t * b); break;
     case DiffusionOrder::Second: {
       const Eigen::VectorXd Nb = b.cwiseQuotient(N_);
-      x = solver_.solve(t * b + (0.5 * t * t) * (KFF_ * Nb));
+      const Eigen::VectorXd rhs = t * b + (0.5 * t * t) * (KFF_ * Nb);
+      x = usesPcg() ? solvePcg(rhs, t) : Eigen::VectorXd(solver_.solve(rhs));
       break;
     }
     case DiffusionOrder::ImplicitEuler: {
@@ -241,6 +266,62 @@ Eigen::VectorXd DiffusionWeights::solve() {
     x = x.cwiseMax(0.0).cwiseMin(top);
   }
   return partition_.scatter(x, g);
+}
+
+// B x = rhs, B = N + t K + t^2/2 K N^-1 K, by conjugate gradients preconditioned with
+// P = S N^-1 S, S = N + g K, g = t / sqrt(2) (docs/method.md, "Diffused weights"). B is applied
+// through K and N without forming K N^-1 K; P^-1 y = S^-1 (N (S^-1 y)) costs two
+// back-substitutions against the factor of S. Per mode of N^-1 K with s = t lambda, P^-1 B has
+// the eigenvalue (1 + s + s^2/2) / (1 + sqrt(2) s + s^2/2) in [(2 + sqrt 2) / 4, 1].
+Eigen::VectorXd DiffusionWeights::solvePcg(const Eigen::VectorXd& rhs, double t) {
+  Timer timer;
+  const double half = 0.5 * t * t;
+  auto applyB = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    const Eigen::VectorXd Kv = KFF_ * v;
+    return N_.cwiseProduct(v) + t * Kv + half * (KFF_ * Kv.cwiseQuotient(N_));
+  };
+  auto applyPinv = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
+    const Eigen::VectorXd y = solver_.solve(v);
+    return solver_.solve(N_.cwiseProduct(y));
+  };
+  DiffusionSolveInfo& info = lastSolve_;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(rhs.size());
+  const double rhsNorm = rhs.norm();
+  if (rhsNorm == 0.0) {  // all magnitudes 0, or no free vertex
+    info.cgSeconds = timer.seconds();
+    return x;
+  }
+  Eigen::VectorXd r = rhs;
+  Eigen::VectorXd z = applyPinv(r);
+  Eigen::VectorXd p = z;
+  double rz = r.dot(z);
+  double relative = 1.0;
+  int k = 0;
+  while (k < kDiffusionCgMaxIterations) {
+    const Eigen::VectorXd q = applyB(p);
+    const double alpha = rz / p.dot(q);
+    x += alpha * p;
+    r -= alpha * q;
+    ++k;
+    relative = r.norm() / rhsNorm;
+    if (relative <= kDiffusionCgTolerance) break;
+    z = applyPinv(r);
+    const double rzNext = r.dot(z);
+    p = z + (rzNext / rz) * p;
+    rz = rzNext;
+  }
+  info.cgIterations = k;
+  info.cgResidual = relative;
+  info.converged = relative <= kDiffusionCgTolerance;
+  info.cgSeconds = timer.seconds();
+  if (!info.converged) {
+    std::ostringstream message;
+    message << "weights: conjugate gradients stopped after " << k
+            << " iterations at relative residual " << relative << " (wanted "
+            << kDiffusionCgTolerance << ")";
+    warn(message.str());
+  }
+  return x;
 }
 
 Eigen::VectorXd diffuseWeights(const Discretization& disc, const HandleSet& handles,

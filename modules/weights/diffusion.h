@@ -21,18 +21,28 @@ enum class TimeUnit {
   Diagonal,   ///< t x squared bounding-box diagonal (the default)
   MeanEdge2,  ///< t x squared mean edge length (the paper's behaviour)
 };
+/// How the second-order system B x = rhs, B = N + t K + t^2/2 K N^-1 K, is solved
+/// (docs/method.md, "Diffused weights").
+enum class DiffusionSolve {
+  Pcg,     ///< conjugate gradients preconditioned by (N + gK) N^-1 (N + gK), g = t / sqrt(2):
+           ///< one factorization with K's own 1-ring pattern (the default)
+  Direct,  ///< Cholesky of B itself, whose pattern has K N^-1 K's 2-ring fill (for comparison)
+};
 
 const char* toString(DiffusionOrder order);
 const char* toString(TimeUnit unit);
+const char* toString(DiffusionSolve solve);
 /// \throw InvalidParameter for an unknown name, listing the valid ones.
 DiffusionOrder parseDiffusionOrder(const std::string& name);
 TimeUnit parseTimeUnit(const std::string& name);
+DiffusionSolve parseDiffusionSolve(const std::string& name);
 
 struct DiffusionParams {
   double t = 0.01;
   TimeUnit unit = TimeUnit::Diagonal;
   DiffusionOrder order = DiffusionOrder::Second;
   int steps = 100;  ///< implicit Euler only
+  DiffusionSolve solve = DiffusionSolve::Pcg;  ///< second order only
   /// Clip the result to [0, max m_j]. The first-order scheme already stays there (maximum
   /// principle); the second-order matrix is not an M-matrix and over/undershoots by up to ~1e-3
   /// (docs/method.md, "Diffused weights"), which would otherwise reach the regularization as a
@@ -40,10 +50,29 @@ struct DiffusionParams {
   bool clip = true;
 };
 
+/// What the last solve() did beyond the factorizations SolverStats counts: the conjugate
+/// gradient iterations of the second order solved by `pcg` (zero otherwise).
+struct DiffusionSolveInfo {
+  int cgIterations = 0;
+  /// ||rhs - B x|| / ||rhs|| of the returned x, as CG's recurrence tracks it (0 for an exact
+  /// solve).
+  double cgResidual = 0.0;
+  bool converged = true;   ///< false when CG stopped at its iteration cap (a warning says so)
+  double cgSeconds = 0.0;  ///< the whole CG, including its back-substitutions
+};
+
+/// Relative residual at which the second order's CG stops, and its iteration cap. The
+/// preconditioned matrix has its eigenvalues in [(2 + sqrt 2) / 4, 1] (condition number below
+/// 1.18), so 1e-12 takes 4-9 iterations on planar, surface and tet meshes for any t.
+constexpr double kDiffusionCgTolerance = 1e-12;
+constexpr int kDiffusionCgMaxIterations = 100;
+
 /// An editing session for the weights that reuses factorizations as the paper's Fig. 5 says:
 /// setHandles -> symbolic analysis + numeric factorization at the next solve; a new t,
-/// setRange -> numeric factorization only; setMagnitude -> right-hand side only. Switching
-/// between first and second order changes the pattern, so it analyzes again.
+/// setRange -> numeric factorization only; setMagnitude -> right-hand side only. The second order
+/// solved by `pcg` factors N + t/sqrt(2) K_FF (the first order's pattern) and runs CG against
+/// it: the same counts hold, and a new m_j re-runs only the CG. Switching to or from the direct
+/// second order changes the pattern, so it analyzes again.
 class DiffusionWeights {
  public:
   explicit DiffusionWeights(const Discretization& disc,
@@ -65,7 +94,10 @@ class DiffusionWeights {
   /// Per-vertex weights x (size n): m_j at handle vertices, 0 at unreferenced vertices,
   /// clipped to [0, max m_j] unless params().clip is off.
   Eigen::VectorXd solve();
+  /// Factorizations and back-substitutions (a `pcg` solve makes two per CG iteration).
   const SolverStats& stats() const { return solver_.stats(); }
+  /// CG iterations and residual of the last solve().
+  const DiffusionSolveInfo& lastSolve() const { return lastSolve_; }
   /// Per-vertex range factor r_i actually used: each vertex takes the r_j of the handle nearest
   /// to it along mesh edges (the paper leaves open how a handle's r_j reaches the free vertices
   /// whose diffusion speed it scales; docs/method.md, "Diffused weights").
@@ -74,6 +106,10 @@ class DiffusionWeights {
  private:
   void preparePartition();
   void prepareMatrix(bool analyzeAgain);
+  bool usesPcg() const {
+    return params_.order == DiffusionOrder::Second && params_.solve == DiffusionSolve::Pcg;
+  }
+  Eigen::VectorXd solvePcg(const Eigen::VectorXd& rhs, double t);
 
   const Discretization& disc_;
   DiffusionParams params_;
@@ -83,8 +119,9 @@ class DiffusionWeights {
   Partition partition_;     // fixed: handle and unreferenced vertices
   SparseMatrix KFF_, KFJ_;
   Eigen::VectorXd N_;       // diag(M_FF R_FF^-1)
-  SparseMatrix KNK_;        // K_FF N^-1 K_FF, reused while r is unchanged
+  SparseMatrix KNK_;        // K_FF N^-1 K_FF (direct second order), reused while r is unchanged
   SpdSolver solver_;
+  DiffusionSolveInfo lastSolve_;
   bool partitionDirty_ = true, matrixDirty_ = true, productDirty_ = true;
 };
 

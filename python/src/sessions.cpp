@@ -38,6 +38,7 @@ DiffusionParams diffusionParams(const ParamMap& params) {
   p.unit = parseTimeUnit(params.getString("t_unit"));
   p.order = parseDiffusionOrder(params.getString("order"));
   p.steps = params.getInt("steps");
+  p.solve = parseDiffusionSolve(params.getString("solve"));
   return p;
 }
 

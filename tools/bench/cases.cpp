@@ -100,9 +100,18 @@ WeightHandles weightHandles(const Discretization& disc) {
   return h;
 }
 
-const char* equationName(DiffusionOrder order) {
-  return order == DiffusionOrder::First ? "eq7" : "eq8";
-}
+// The weight schemes timed: eq. 7, eq. 8 by PCG (the default) and eq. 8 by the direct
+// Cholesky of its 2-ring matrix (docs/method.md, "Diffused weights").
+struct WeightScheme {
+  const char* name;
+  DiffusionOrder order;
+  DiffusionSolve solve;
+};
+constexpr WeightScheme kWeightSchemes[] = {
+    {"eq7", DiffusionOrder::First, DiffusionSolve::Pcg},
+    {"eq8", DiffusionOrder::Second, DiffusionSolve::Pcg},
+    {"eq8-direct", DiffusionOrder::Second, DiffusionSolve::Direct},
+};
 
 // The paper's §4 timings for its three weight meshes (factor, solve), eq. 7 then eq. 8.
 struct PaperWeights {
@@ -140,12 +149,12 @@ std::function<BenchMesh()> shared(const std::string& label, const std::string& f
 
 void addWeightCase(std::vector<Case>& cases, const std::string& label,
                    const std::function<BenchMesh()>& make, const PaperWeights& paper) {
-  for (DiffusionOrder order : {DiffusionOrder::First, DiffusionOrder::Second}) {
+  for (const WeightScheme& scheme : kWeightSchemes) {
     auto state = std::make_shared<State>();
-    const bool first = order == DiffusionOrder::First;
+    const bool first = scheme.order == DiffusionOrder::First;
     Case c;
     c.group = "weights";
-    c.name = std::string("weights/") + equationName(order) + "/" + label;
+    c.name = std::string("weights/") + scheme.name + "/" + label;
     c.paper = {{"factor", first ? paper.factor7 : paper.factor8},
                {"resolve", first ? paper.solve7 : paper.solve8}};
     c.prepare = [state, make] {
@@ -168,18 +177,27 @@ void addWeightCase(std::vector<Case>& cases, const std::string& label,
       return p;
     };
     c.release = [state] { *state = State(); };
-    c.run = [state, order] {
-      DiffusionWeights w(*state->disc);
+    c.run = [state, scheme] {
+      // What the diffuse_weights filter does: discretize the rest shape, then one session.
+      Timer whole;
+      const Discretization disc(state->mesh.mesh);
+      const double discretization = whole.seconds();
+      DiffusionWeights w(disc);
       const WeightHandles& h = state->weightHandles;
       w.setHandles(h.sets, h.ranges, h.magnitudes);
       DiffusionParams p;
-      p.order = order;
+      p.order = scheme.order;
+      p.solve = scheme.solve;
       p.t = 0.01;
       w.setParams(p);
       Timer timer;
       w.solve();
       const double firstSolve = timer.seconds();
+      const double filter = whole.seconds();
       const SolverStats s1 = w.stats();
+      const DiffusionSolveInfo cg = w.lastSolve();
+      // The solve phase: the back-substitution, or the whole CG (its products with B too).
+      const double solvePhase = cg.cgIterations > 0 ? cg.cgSeconds : s1.solveSeconds;
       // A new t: numeric refactorization only (paper Fig. 5).
       p.t = 0.012;
       w.setParams(p);
@@ -195,10 +213,15 @@ void addWeightCase(std::vector<Case>& cases, const std::string& label,
       const SolverStats s3 = w.stats() - s1 - s2;
       if (s1.symbolic != 1 || s2.symbolic != 0 || s2.numeric != 1 || s3.numeric != 0)
         throw Error("weights: the session did not reuse its factorization as Fig. 5 says");
+      if (!cg.converged) throw Error("weights: conjugate gradients did not converge");
       return Sample{{"symbolic", s1.symbolicSeconds},
                     {"numeric", s1.numericSeconds},
-                    {"factor", firstSolve - s1.solveSeconds},
-                    {"solve", s1.solveSeconds},
+                    {"factor", firstSolve - solvePhase},
+                    {"solve", solvePhase},
+                    {"whole", firstSolve},
+                    {"discretization", discretization},
+                    {"filter", filter},
+                    {"cg_iterations_count", static_cast<double>(cg.cgIterations)},
                     {"refactor", refactor},
                     {"refactor_numeric", s2.numericSeconds},
                     {"resolve", resolve},
@@ -375,6 +398,7 @@ void addWeightCases(std::vector<Case>& cases, const Sizes& sizes) {
   addWeightCase(
       cases, "tet-3.7k", [] { return tetBoxNear(3700); }, kPaper4k);
   addWeightCase(cases, "tet-bar", shared("tet-bar", "tet-bar.mesh"), kPaper4k);
+  addWeightCase(cases, "rocker-arm", shared("rocker-arm", "surface-rocker-arm.obj"), kPaper4k);
   addWeightCase(
       cases, "tet-21k", [] { return tetBoxNear(21000); }, kPaper21k);
   addWeightCase(cases, "tet-monkey", shared("tet-monkey", "tet-monkey.mesh"), kPaper21k);
