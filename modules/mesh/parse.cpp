@@ -58,20 +58,27 @@ bool isNumber(std::string_view s) {
   return parseDouble(s, v) != Parsed::Bad;
 }
 
-/// A coordinate of vertex `vertex` (as numbered in messages) at `where`.
-double coordinate(std::string_view token, const std::string& where, long long vertex) {
+/// A coordinate of vertex `vertex` (as numbered in messages); `where()` gives "source:line",
+/// called only for a message.
+template <class Where>
+double coordinate(std::string_view token, const Where& where, long long vertex) {
   double v = 0.0;
   const Parsed p = parseDouble(token, v);
+  if (p == Parsed::Ok && std::isfinite(v)) return v;
   const std::string name = "vertex " + std::to_string(vertex);
   if (p == Parsed::Bad) {
-    throw InvalidMesh(where + ": expected a coordinate of " + name + ", got " + quote(token));
+    throw InvalidMesh(where() + ": expected a coordinate of " + name + ", got " + quote(token));
   }
   if (p == Parsed::Overflow) {
-    throw InvalidMesh(where + ": " + name + " has a non-finite coordinate (" + quote(token) +
+    throw InvalidMesh(where() + ": " + name + " has a non-finite coordinate (" + quote(token) +
                       " is beyond the range of double)");
   }
-  if (!std::isfinite(v)) throw InvalidMesh(where + ": " + name + " has a non-finite coordinate");
-  return v;
+  throw InvalidMesh(where() + ": " + name + " has a non-finite coordinate");
+}
+
+/// The C locale's white space, without a call per character.
+inline bool isSpace(char c) {
+  return c == ' ' || c == '\n' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
 }
 
 /// Lines and whitespace-separated tokens of a text file with line numbers ('#' starts a
@@ -99,7 +106,7 @@ class Scanner {
   /// The next token (across lines); false at the end of the text.
   bool token(std::string_view& out) {
     for (;;) {
-      while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) {
+      while (pos_ < text_.size() && isSpace(text_[pos_])) {
         if (text_[pos_] == '\n') ++nextLine_;
         ++pos_;
       }
@@ -110,7 +117,7 @@ class Scanner {
         continue;
       }
       const size_t start = pos_;
-      while (pos_ < text_.size() && !std::isspace(static_cast<unsigned char>(text_[pos_])) &&
+      while (pos_ < text_.size() && !isSpace(text_[pos_]) &&
              !(comments_ && text_[pos_] == '#'))
         ++pos_;
       out = text_.substr(start, pos_ - start);
@@ -130,9 +137,9 @@ class Scanner {
   static void split(std::string_view l, std::vector<std::string_view>& tokens) {
     size_t i = 0;
     while (i < l.size()) {
-      while (i < l.size() && std::isspace(static_cast<unsigned char>(l[i]))) ++i;
+      while (i < l.size() && isSpace(l[i])) ++i;
       const size_t start = i;
-      while (i < l.size() && !std::isspace(static_cast<unsigned char>(l[i]))) ++i;
+      while (i < l.size() && !isSpace(l[i])) ++i;
       if (i > start) tokens.push_back(l.substr(start, i - start));
     }
   }
@@ -179,7 +186,7 @@ RawMesh parseObj(std::string_view text, const std::string& source) {
       if (t.size() < 4)
         throw InvalidMesh(s.where() + ": vertex " + std::to_string(id) + " needs 3 coordinates");
       Eigen::Vector3d p;
-      for (int c = 0; c < 3; ++c) p[c] = coordinate(t[1 + c], s.where(), id);
+      for (int c = 0; c < 3; ++c) p[c] = coordinate(t[1 + c], [&] { return s.where(); }, id);
       raw.points.push_back(p);
     } else if (t[0] == "f") {
       RawFace face{s.lineNumber(), {}};
@@ -301,7 +308,7 @@ RawMesh parseOff(std::string_view text, const std::string& source) {
     if (t.size() < 3)
       throw InvalidMesh(s.where() + ": vertex " + std::to_string(i) + " needs 3 coordinates");
     Eigen::Vector3d p;
-    for (int c = 0; c < 3; ++c) p[c] = coordinate(t[c], s.where(), i);
+    for (int c = 0; c < 3; ++c) p[c] = coordinate(t[c], [&] { return s.where(); }, i);
     raw.points.push_back(p);
   }
   for (long long k = 0; k < nf; ++k) {
@@ -797,7 +804,7 @@ int readTetgenNodes(std::string_view text, const std::string& source, TetMesh& t
     }
     if (l.size() < 4) throw InvalidMesh(f.where() + ": point needs 3 coordinates");
     Eigen::Vector3d p;
-    for (int c = 0; c < 3; ++c) p[c] = coordinate(l[c + 1], f.where(), *id);
+    for (int c = 0; c < 3; ++c) p[c] = coordinate(l[c + 1], [&] { return f.where(); }, *id);
     tet.points.push_back(p);
   }
   return firstIndex;
@@ -879,23 +886,32 @@ constexpr size_t kMaxSplitFaces = 1000;
 /// [0, numVertices) or a repeated vertex.
 void checkFace(const std::string& source, const RawFace& f, size_t k, long long numVertices,
                int base) {
-  const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") + ": face " +
-                            std::to_string(k + base);
-  if (f.ids.size() < 3) throw InvalidMesh(where + " has fewer than 3 vertices");
+  const auto where = [&] {
+    return source + (f.line > 0 ? ":" + std::to_string(f.line) : "") + ": face " +
+           std::to_string(k + base);
+  };
+  if (f.ids.size() < 3) throw InvalidMesh(where() + " has fewer than 3 vertices");
   for (size_t j = 0; j < f.ids.size(); ++j) {
     if (f.ids[j] < 0 || f.ids[j] >= numVertices) {
-      throw InvalidMesh(where + " has vertex index " + std::to_string(f.ids[j] + base) +
+      throw InvalidMesh(where() + " has vertex index " + std::to_string(f.ids[j] + base) +
                         " out of range " + std::to_string(base) + ".." +
                         std::to_string(numVertices - 1 + base));
     }
   }
+  const auto repeated = [&](long long id) {
+    throw InvalidMesh(where() + " is degenerate: vertex " + std::to_string(id + base) +
+                      " appears twice");
+  };
+  if (f.ids.size() == 3) {  // the common case, without a copy
+    const long long a = f.ids[0], b = f.ids[1], c = f.ids[2];
+    if (a == b || a == c) repeated(a);
+    if (b == c) repeated(b);
+    return;
+  }
   std::vector<long long> sorted = f.ids;
   std::sort(sorted.begin(), sorted.end());
   const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
-  if (dup != sorted.end()) {
-    throw InvalidMesh(where + " is degenerate: vertex " + std::to_string(*dup + base) +
-                      " appears twice");
-  }
+  if (dup != sorted.end()) repeated(*dup);
 }
 
 }  // namespace
