@@ -1,7 +1,7 @@
-// A small, strict XML reader for the files MeshLab writes (.mlx filter scripts, .pp picked
-// points): elements, attributes, text, comments, processing instructions, CDATA and a DOCTYPE
+// Strict XML reading for the files MeshLab writes (.mlx filter scripts, .pp picked points), on
+// pugixml: elements, attributes, text, comments, processing instructions, CDATA and a DOCTYPE
 // line; the five predefined entities and numeric character references. No namespaces, no
-// external entities, no validation. Every error is one line "source:line: ...".
+// entities declared in the DOCTYPE, no validation. Every error is one line "source:line: ...".
 #pragma once
 
 #include <string>
