@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "core/file.h"
 #include "core/log.h"
+#include "mesh/boundary.h"
 #include "mesh/om.h"
 #include "mesh/parse.h"
 
@@ -196,66 +197,6 @@ void writeObjOff(std::ostream& out, const Mesh& mesh, bool obj) {
   }
 }
 
-/// The boundary of a tet mesh: faces not shared by two tets, oriented outward, with the tet
-/// each belongs to, over the boundary vertices only (kept in increasing id order).
-struct Boundary {
-  Eigen::MatrixXd points;
-  Eigen::MatrixXi faces;
-  std::vector<int> vertexIds;  ///< original id of each boundary vertex
-  std::vector<int> owner;      ///< tet of each boundary face
-};
-
-Boundary tetBoundary(const TetMesh& tet) {
-  // Outward faces of a positively oriented tet (a, b, c, d), the one opposite vertex i first.
-  static const int local[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  struct Entry {
-    std::array<int, 3> key;
-    int tet, face;
-  };
-  std::vector<Entry> entries;
-  entries.reserve(tet.tets.size() * 4);
-  for (size_t k = 0; k < tet.tets.size(); ++k) {
-    for (int f = 0; f < 4; ++f) {
-      std::array<int, 3> key{tet.tets[k][local[f][0]], tet.tets[k][local[f][1]],
-                             tet.tets[k][local[f][2]]};
-      std::sort(key.begin(), key.end());
-      entries.push_back({key, static_cast<int>(k), f});
-    }
-  }
-  std::sort(entries.begin(), entries.end(),
-            [](const Entry& a, const Entry& b) { return a.key < b.key; });
-  Boundary b;
-  std::vector<std::array<int, 3>> faces;
-  for (size_t i = 0; i < entries.size();) {
-    size_t j = i + 1;
-    while (j < entries.size() && entries[j].key == entries[i].key) ++j;
-    if (j == i + 1) {
-      const auto& t = tet.tets[entries[i].tet];
-      const int* l = local[entries[i].face];
-      faces.push_back({t[l[0]], t[l[1]], t[l[2]]});
-      b.owner.push_back(entries[i].tet);
-    }
-    i = j;
-  }
-  std::vector<int> map(tet.points.size(), -1);
-  for (const auto& f : faces)
-    for (int v : f) map[v] = 0;
-  for (size_t v = 0; v < map.size(); ++v) {
-    if (map[v] == 0) {
-      map[v] = static_cast<int>(b.vertexIds.size());
-      b.vertexIds.push_back(static_cast<int>(v));
-    }
-  }
-  b.points.resize(b.vertexIds.size(), 3);
-  for (size_t i = 0; i < b.vertexIds.size(); ++i) {
-    b.points.row(i) = tet.points[b.vertexIds[i]].transpose();
-  }
-  b.faces.resize(faces.size(), 3);
-  for (size_t k = 0; k < faces.size(); ++k)
-    for (int j = 0; j < 3; ++j) b.faces(k, j) = map[faces[k][j]];
-  return b;
-}
-
 }  // namespace
 
 std::string extensionOf(const std::string& path) {
@@ -387,15 +328,15 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
       auto vq = scalar(true, options.vertexQuality);
       auto fq = scalar(false, options.faceQuality);
       if (mesh.isTet()) {
-        const Boundary b = tetBoundary(mesh.tet());
+        const BoundarySurface b = boundarySurface(mesh.tet());
         std::optional<Eigen::VectorXd> bvq, bfq;
         if (vq) {
           bvq = Eigen::VectorXd(b.vertexIds.size());
           for (size_t i = 0; i < b.vertexIds.size(); ++i) (*bvq)[i] = (*vq)[b.vertexIds[i]];
         }
         if (fq) {
-          bfq = Eigen::VectorXd(b.owner.size());
-          for (size_t k = 0; k < b.owner.size(); ++k) (*bfq)[k] = (*fq)[b.owner[k]];
+          bfq = Eigen::VectorXd(b.element.size());
+          for (size_t k = 0; k < b.element.size(); ++k) (*bfq)[k] = (*fq)[b.element[k]];
         }
         writePly(out, b.points, b.faces, bvq ? &*bvq : nullptr, bfq ? &*bfq : nullptr,
                  options.colors);

@@ -414,39 +414,6 @@ Eigen::AlignedBox3d meshBounds(const Mesh& mesh) {
   return box;
 }
 
-BoundaryFaces tetBoundary(const TetMesh& tet) {
-  // Outward faces of a positively oriented tet (a, b, c, d).
-  static const int local[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  struct Face {
-    std::array<int, 3> key;
-    int tet, local;
-  };
-  std::vector<Face> faces;
-  faces.reserve(tet.tets.size() * 4);
-  for (int k = 0; k < static_cast<int>(tet.tets.size()); ++k) {
-    for (int j = 0; j < 4; ++j) {
-      std::array<int, 3> key{tet.tets[k][local[j][0]], tet.tets[k][local[j][1]],
-                             tet.tets[k][local[j][2]]};
-      std::sort(key.begin(), key.end());
-      faces.push_back({key, k, j});
-    }
-  }
-  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key; });
-  BoundaryFaces result;
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j == i + 1) {
-      const auto& t = tet.tets[faces[i].tet];
-      const int* l = local[faces[i].local];
-      result.faces.push_back({t[l[0]], t[l[1]], t[l[2]]});
-      result.element.push_back(faces[i].tet);
-    }
-    i = j;
-  }
-  return result;
-}
-
 Image renderMesh(const Mesh& mesh, const RenderOptions& options) {
   const Field field = resolveField(mesh, options);
   const RenderLayout layout = layoutFor(options, field);

@@ -3,6 +3,7 @@
 // optional wireframe and marked handle vertices. Z-buffered, supersampled, no GPU needed.
 #pragma once
 
+#include "mesh/boundary.h"  // tetBoundary: what a tet mesh is drawn by
 #include "mesh/mesh.h"
 #include "render/image.h"
 
@@ -123,14 +124,6 @@ class Projection {
 /// Bounds of the referenced vertices at their current positions (empty box for no vertices);
 /// extend several of these to frame a series of panels alike.
 Eigen::AlignedBox3d meshBounds(const Mesh& mesh);
-
-/// Boundary triangles of a tet mesh (the tet faces not shared with another tet), oriented
-/// outwards, with the index of the tet each belongs to.
-struct BoundaryFaces {
-  std::vector<std::array<int, 3>> faces;
-  std::vector<int> element;
-};
-BoundaryFaces tetBoundary(const TetMesh& tet);
 
 /// Renders `mesh` at its current positions: triangle meshes directly, tet meshes by their
 /// boundary faces, coloured by the chosen scalar through options.colormap with a colour bar

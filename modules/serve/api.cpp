@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/text.h"
+#include "mesh/boundary.h"
 #include "mesh/io.h"
 #include "render/image.h"
 #include "render/render.h"
