@@ -9,6 +9,8 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <random>
 
 namespace diffreg {
 namespace {
@@ -101,6 +103,48 @@ std::string readFileLimited(const std::string& path, const std::string& what, st
   }
   ::close(fd);
   return text;
+}
+
+void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body) {
+  const auto fail = [&path](const std::string& reason) {
+    return IoError("cannot write '" + path + "': " + reason);
+  };
+  // A new name beside the target (O_EXCL: never an existing file or a planted link).
+  static const char alphabet[] = "abcdefghijklmnopqrstuvwxyz0123456789";
+  std::random_device rd;
+  std::mt19937 rng(rd());
+  std::string tmp;
+  int fd = -1;
+  for (int attempt = 0; attempt < 100 && fd < 0; ++attempt) {
+    tmp = path + ".tmp-";
+    for (int i = 0; i < 6; ++i) tmp += alphabet[rng() % (sizeof(alphabet) - 1)];
+    fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0 && errno != EEXIST) throw fail(std::strerror(errno));
+  }
+  if (fd < 0) throw fail("no free temporary name");
+  ::close(fd);
+  try {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw fail("cannot open '" + tmp + "'");
+    body(out);
+    out.flush();
+    if (!out) throw fail("write failed");
+    out.close();
+    if (out.fail()) throw fail("close failed");
+    // The data on disk before the name points to it (else a crash can leave an empty file).
+    fd = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
+    const bool synced = fd >= 0 && ::fsync(fd) == 0;
+    const int err = errno;
+    if (fd >= 0) ::close(fd);
+    if (!synced) throw fail(std::string("sync failed: ") + std::strerror(err));
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) throw fail(std::strerror(errno));
+  } catch (const Error&) {
+    std::remove(tmp.c_str());
+    throw;
+  } catch (const std::exception& e) {
+    std::remove(tmp.c_str());
+    throw fail(e.what());
+  }
 }
 
 }  // namespace diffreg

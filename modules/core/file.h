@@ -1,10 +1,12 @@
 // Reading whole input files under a byte limit. Every file diffreg reads (meshes, handle files,
 // MeshLab picked points and scripts) goes through readFileLimited, so an endless or huge input
 // (a device, a FIFO, a multi-gigabyte file) ends in a one-line IoError instead of a hang or
-// runaway memory.
+// runaway memory. Files diffreg writes go through writeFileAtomically.
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <ostream>
 #include <string>
 
 namespace diffreg {
@@ -28,6 +30,14 @@ std::string readFileLimited(const std::string& path, const std::string& what, st
 /// The size of the regular file `path`, with the same checks as readFileLimited (for readers
 /// that hand the file to a library). \throw IoError as readFileLimited.
 std::uint64_t checkInputFile(const std::string& path, const std::string& what, std::uint64_t limit);
+
+/// Writes the file `path` all or nothing: `body` writes a new temporary file beside it
+/// ("<path>.tmp-XXXXXX", in the same directory so that the rename is atomic), which is flushed,
+/// synced to disk and renamed onto `path`. Readers see the old file or the whole new one, never
+/// a part. On any failure the temporary is removed and `path` is left as it was.
+/// \throw IoError "cannot write 'path': ..." when creating, writing, syncing or renaming fails or
+///        `body` throws a standard exception; an Error thrown by `body` passes unchanged.
+void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body);
 
 /// "1.5 MiB", "512 MiB", "300 bytes": a byte count for messages.
 std::string byteText(std::uint64_t bytes);

@@ -14,12 +14,8 @@
 #include <OpenMesh/Core/IO/importer/ImporterT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -29,7 +25,6 @@
 #include <functional>
 #include <iomanip>
 #include <optional>
-#include <random>
 #include <sstream>
 #include <string_view>
 
@@ -90,44 +85,6 @@ TetMesh readTetgen(const std::string& path) {
 
 // ---------------------------------------------------------------------------------------
 // Writing
-
-/// Writes through `body` to "<path>.tmp-XXXXXX" beside `path`, then renames it into place.
-/// On any failure the temporary file is removed and IoError is thrown.
-void writeAtomically(const std::string& path, const std::function<void(std::ostream&)>& body) {
-  static const char alphabet[] = "abcdefghijklmnopqrstuvwxyz0123456789";
-  std::random_device rd;
-  std::mt19937 rng(rd());
-  std::string tmp;
-  int fd = -1;
-  for (int attempt = 0; attempt < 100 && fd < 0; ++attempt) {
-    tmp = path + ".tmp-";
-    for (int i = 0; i < 6; ++i) tmp += alphabet[rng() % (sizeof(alphabet) - 1)];
-    fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0 && errno != EEXIST) {
-      throw IoError("cannot write " + quote(path) + ": " + std::strerror(errno));
-    }
-  }
-  if (fd < 0) throw IoError("cannot write " + quote(path) + ": no free temporary name");
-  ::close(fd);
-  try {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw IoError("cannot write " + quote(tmp));
-    body(out);
-    out.flush();
-    if (!out) throw IoError("cannot write " + quote(path) + ": write failed");
-    out.close();
-    if (out.fail()) throw IoError("cannot write " + quote(path) + ": close failed");
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-      throw IoError("cannot write " + quote(path) + ": " + std::strerror(errno));
-    }
-  } catch (const Error&) {
-    std::remove(tmp.c_str());
-    throw;
-  } catch (const std::exception& e) {
-    std::remove(tmp.c_str());
-    throw IoError("cannot write " + quote(path) + ": " + e.what());
-  }
-}
 
 /// `v` in the shortest form that reads back as the same double (at most 17 digits).
 std::string exact(double v) {
@@ -321,7 +278,7 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
     for (const auto& name : mesh.vertexScalarNames()) scalar(true, name);
     for (const auto& name : mesh.elementScalarNames()) scalar(false, name);
   }
-  writeAtomically(path, [&](std::ostream& out) {
+  writeFileAtomically(path, [&](std::ostream& out) {
     if (ext == "mesh") {
       writeMedit(out, mesh.tet());
     } else if (ext == "ply") {

@@ -1,13 +1,11 @@
 #include "render/image.h"
 
 #include "core/error.h"
+#include "core/file.h"
 
 #include <png.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -79,37 +77,26 @@ void writePng(const std::string& path, const Image& image) {
       image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3) {
     throw InvalidParameter("writePng: '" + path + "': empty or inconsistent image");
   }
-  const std::size_t slash = path.find_last_of('/');
-  std::string temp = (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) +
-                     ".diffreg-png-XXXXXX";
-  const int fd = mkstemp(temp.data());
-  if (fd < 0) {
-    throw IoError("writePng: cannot write '" + path + "': " + std::strerror(errno));
-  }
-  fchmod(fd, 0644);
-  FILE* file = fdopen(fd, "wb");
-  if (!file) {
-    const int err = errno;
-    close(fd);
-    std::remove(temp.c_str());
-    throw IoError("writePng: cannot write '" + path + "': " + std::strerror(err));
-  }
   png_image png;
   std::memset(&png, 0, sizeof png);
   png.version = PNG_IMAGE_VERSION;
   png.width = static_cast<png_uint_32>(image.width);
   png.height = static_cast<png_uint_32>(image.height);
   png.format = PNG_FORMAT_RGB;
-  const bool written = png_image_write_to_stdio(&png, file, 0, image.rgb.data(), 0, nullptr) != 0;
+  // Encoded in memory (a first call for the size), then written all or nothing.
+  png_alloc_size_t size = 0;
+  std::vector<char> encoded;
+  bool ok = png_image_write_to_memory(&png, nullptr, &size, 0, image.rgb.data(), 0, nullptr) != 0;
+  if (ok) {
+    encoded.resize(size);
+    ok = png_image_write_to_memory(&png, encoded.data(), &size, 0, image.rgb.data(), 0, nullptr) != 0;
+  }
   const std::string pngMessage = png.message;
   png_image_free(&png);
-  const bool flushed = std::fflush(file) == 0 && fsync(fileno(file)) == 0;
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !flushed || !closed || std::rename(temp.c_str(), path.c_str()) != 0) {
-    const std::string reason = !written ? pngMessage : std::strerror(errno);
-    std::remove(temp.c_str());
-    throw IoError("writePng: cannot write '" + path + "': " + reason);
-  }
+  if (!ok) throw IoError("writePng: cannot write '" + path + "': " + pngMessage);
+  writeFileAtomically(path, [&](std::ostream& out) {
+    out.write(encoded.data(), static_cast<std::streamsize>(size));
+  });
 }
 
 Image readPng(const std::string& path) {

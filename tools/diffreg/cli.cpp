@@ -1,6 +1,7 @@
 #include "cli.h"
 
 #include "core/error.h"
+#include "core/file.h"
 #include "core/log.h"
 
 #include <cerrno>
@@ -8,7 +9,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <iomanip>
 #include <sstream>
@@ -131,10 +131,11 @@ std::string StagedOutputs::stage(const std::string& path) {
 
 void StagedOutputs::stageText(const std::string& path, const std::string& text) {
   const std::string tmp = stage(path);
-  std::ofstream out(tmp, std::ios::binary);
-  out << text;
-  out.close();
-  if (!out) throw IoError("cannot write '" + path + "'");
+  try {
+    writeFileAtomically(tmp, [&text](std::ostream& out) { out << text; });
+  } catch (const IoError&) {
+    throw IoError("cannot write '" + path + "'");
+  }
 }
 
 void StagedOutputs::commit() {
