@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -187,8 +188,13 @@ class Reader {
     return line_;
   }
 
-  /// Byte offset in the text of a name or value pugixml parsed in place.
-  size_t offsetOf(const char* p) const { return static_cast<size_t>(p - buffer_.data()); }
+  /// Byte offset in the text of a name or value pugixml parsed in place (the end of the text
+  /// for an empty one, which pugixml does not point into the buffer).
+  size_t offsetOf(const char* p) const {
+    const std::less_equal<const char*> le;
+    if (!(le(buffer_.data(), p) && le(p, buffer_.data() + s_.size()))) return s_.size();
+    return static_cast<size_t>(p - buffer_.data());
+  }
 
   static std::string doctypeName(const char* value) {
     const char* end = value;
