@@ -1,4 +1,4 @@
-// The small XML reader behind .mlx scripts and .pp picked points: the subset MeshLab writes is
+// The XML reading behind .mlx scripts and .pp picked points (pugixml): the subset MeshLab writes is
 // read faithfully, and every malformed input is one line naming the source and the line.
 #include "core/error.h"
 #include "core/xml.h"

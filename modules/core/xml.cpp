@@ -40,9 +40,7 @@ bool isNameStart(char c) {
   return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || c == '_' || c == ':' || u >= 0x80;
 }
 
-bool isNameChar(char c) {
-  return isNameStart(c) || (c >= '0' && c <= '9') || c == '-' || c == '.';
-}
+bool isNameChar(char c) { return isNameStart(c) || (c >= '0' && c <= '9') || c == '-' || c == '.'; }
 
 /// Appends the UTF-8 encoding of `code` to `out`.
 void appendUtf8(std::string& out, unsigned long code) {
@@ -65,9 +63,8 @@ void appendUtf8(std::string& out, unsigned long code) {
 
 size_t countOf(const char* text, size_t size, const char* needle) {
   size_t n = 0;
-  for (const char* p = text; (p = static_cast<const char*>(std::memchr(p, needle[0],
-                                                                         text + size - p)));
-       ++p) {
+  for (const char* p = text;
+       (p = static_cast<const char*>(std::memchr(p, needle[0], text + size - p))); ++p) {
     if (std::strncmp(p, needle, std::strlen(needle)) == 0) ++n;
   }
   return n;
@@ -104,7 +101,8 @@ class Reader {
     // bad entity, '<' in an attribute value): the first of both is the one reported.
     std::optional<Problem> first;
     if (!s_.empty() && s_.back() == '<')
-      first = Problem{s_.size() - 1, s_.size(), "expected an element name, found the end of the file"};
+      first =
+          Problem{s_.size() - 1, s_.size(), "expected an element name, found the end of the file"};
     if (!result) {
       try {
         restate(result);
@@ -206,7 +204,8 @@ class Reader {
   void checkComment(pugi::xml_node node) {
     const char* v = node.value();
     const size_t n = std::strlen(v);
-    if (const char* dashes = std::strstr(v, "--")) failAt(offsetOf(dashes), "'--' inside a comment");
+    if (const char* dashes = std::strstr(v, "--"))
+      failAt(offsetOf(dashes), "'--' inside a comment");
     if (n > 0 && v[n - 1] == '-') failAt(offsetOf(v + n - 1), "'--' inside a comment");
   }
 
@@ -238,8 +237,7 @@ class Reader {
         char* end = nullptr;
         const unsigned long code = std::strtoul(digits.c_str(), &end, hex ? 16 : 10);
         if (digits.empty() || *end != '\0' ||
-            !std::isxdigit(static_cast<unsigned char>(digits[0])) || code == 0 ||
-            code > 0x10FFFF) {
+            !std::isxdigit(static_cast<unsigned char>(digits[0])) || code == 0 || code > 0x10FFFF) {
           failAt(offsetOf(p), "bad character reference '&" + name + ";'");
         }
         appendUtf8(out, code);
@@ -375,8 +373,9 @@ class Reader {
   }
 
   [[noreturn]] void failEndTagName(size_t pos) const {
-    failAt(pos, std::string("expected an element name after '</', found ") +
-                    (pos >= s_.size() ? "the end of the file" : "'" + std::string(1, s_[pos]) + "'"));
+    failAt(pos,
+           std::string("expected an element name after '</', found ") +
+               (pos >= s_.size() ? "the end of the file" : "'" + std::string(1, s_[pos]) + "'"));
   }
 
   /// Restates pugixml's error in the reader's own terms, at the place the problem starts.
@@ -414,9 +413,10 @@ class Reader {
         const size_t lt = off > 0 && s_[off - 1] == '<' ? off - 1 : s_.rfind('<', off);
         if (lt == std::string::npos) break;
         if (lt + 1 < s_.size() && s_[lt + 1] == '!') failUnexpectedMarkup(lt);
-        failAt(lt + 1, lt + 1 >= s_.size()
-                           ? std::string("expected an element name, found the end of the file")
-                           : "expected an element name, found '" + std::string(1, s_[lt + 1]) + "'");
+        failAt(lt + 1,
+               lt + 1 >= s_.size()
+                   ? std::string("expected an element name, found the end of the file")
+                   : "expected an element name, found '" + std::string(1, s_[lt + 1]) + "'");
       }
       case pugi::status_bad_end_element: {
         const size_t name = before("</") + 2;
@@ -430,7 +430,8 @@ class Reader {
           if (closing.empty()) failEndTagName(off);
           size_t gt = off + closing.size();
           while (gt < s_.size() && isSpace(s_[gt])) ++gt;
-          if (gt >= s_.size() || s_[gt] != '>') failAt(gt, "expected '>' to end </" + closing + ">");
+          if (gt >= s_.size() || s_[gt] != '>')
+            failAt(gt, "expected '>' to end </" + closing + ">");
         }
         const pugi::xml_node open = openElementAt(endTag ? off - 2 : s_.size());
         if (!open) break;

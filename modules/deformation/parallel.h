@@ -16,8 +16,8 @@ int numChunks(int n, int grain);
 /// is more than one chunk and more than one thread (a loop inside a body shares the threads);
 /// each chunk runs exactly once, so a body that writes only its chunk's outputs (or its own slot
 /// of a per-chunk array) is race-free, and per-chunk partial sums combined in chunk order give the
-/// same result for any number of threads. Exceptions thrown by the body are rethrown here (the first
-/// one; the remaining chunks are skipped).
+/// same result for any number of threads. Exceptions thrown by the body are rethrown here (the
+/// first one; the remaining chunks are skipped).
 /// \pre grain >= 1.
 void forChunks(int n, int grain, const std::function<void(int chunk, int begin, int end)>& body);
 

@@ -54,7 +54,8 @@ BoundarySurface boundarySurface(const TetMesh& tet) {
     s.points.row(static_cast<Eigen::Index>(i)) = tet.points[s.vertexIds[i]].transpose();
   s.faces.resize(static_cast<Eigen::Index>(boundary.faces.size()), 3);
   for (size_t k = 0; k < boundary.faces.size(); ++k)
-    for (int j = 0; j < 3; ++j) s.faces(static_cast<Eigen::Index>(k), j) = map[boundary.faces[k][j]];
+    for (int j = 0; j < 3; ++j)
+      s.faces(static_cast<Eigen::Index>(k), j) = map[boundary.faces[k][j]];
   s.element = std::move(boundary.element);
   return s;
 }

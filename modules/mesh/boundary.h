@@ -24,10 +24,10 @@ BoundaryFaces tetBoundary(const TetMesh& tet);
 /// The boundary as a triangle mesh of its own: only the vertices the faces use, kept in
 /// increasing id order.
 struct BoundarySurface {
-  Eigen::MatrixXd points;       ///< one row per boundary vertex
-  Eigen::MatrixXi faces;        ///< into `points`
-  std::vector<int> vertexIds;   ///< tet mesh id of each boundary vertex
-  std::vector<int> element;     ///< tet of each face
+  Eigen::MatrixXd points;      ///< one row per boundary vertex
+  Eigen::MatrixXi faces;       ///< into `points`
+  std::vector<int> vertexIds;  ///< tet mesh id of each boundary vertex
+  std::vector<int> element;    ///< tet of each face
 };
 BoundarySurface boundarySurface(const TetMesh& tet);
 

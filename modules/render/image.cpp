@@ -89,7 +89,8 @@ void writePng(const std::string& path, const Image& image) {
   bool ok = png_image_write_to_memory(&png, nullptr, &size, 0, image.rgb.data(), 0, nullptr) != 0;
   if (ok) {
     encoded.resize(size);
-    ok = png_image_write_to_memory(&png, encoded.data(), &size, 0, image.rgb.data(), 0, nullptr) != 0;
+    ok = png_image_write_to_memory(&png, encoded.data(), &size, 0, image.rgb.data(), 0, nullptr) !=
+         0;
   }
   const std::string pngMessage = png.message;
   png_image_free(&png);
