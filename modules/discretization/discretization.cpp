@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 #include <string>
 
@@ -26,8 +27,14 @@ struct DisjointSets {
 struct FacetRecord {
   std::array<int, 3> key;
   int element;
-  bool operator<(const FacetRecord& o) const {
-    return key != o.key ? key < o.key : element < o.element;
+  bool operator<(const FacetRecord& o) const {  // by key, then element (no memcmp call)
+    if (key[0] != o.key[0]) return key[0] < o.key[0];
+    if (key[1] != o.key[1]) return key[1] < o.key[1];
+    if (key[2] != o.key[2]) return key[2] < o.key[2];
+    return element < o.element;
+  }
+  bool sameKey(const FacetRecord& o) const {
+    return key[0] == o.key[0] && key[1] == o.key[1] && key[2] == o.key[2];
   }
 };
 
@@ -73,7 +80,10 @@ double facetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& eleme
                          std::vector<FacetRecord>& records) {
   const int m = static_cast<int>(elements.rows()), facetSize = k - 1;
   records.reserve(static_cast<size_t>(m) * k);
-  std::vector<std::pair<int, int>> edges;
+  std::vector<std::uint64_t> edges;  // (smaller id << 32) | larger id
+  const auto edge = [](int a, int b) {
+    return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
+  };
   if (k == 4) edges.reserve(static_cast<size_t>(m) * 6);
   for (int e = 0; e < m; ++e) {
     for (int i = 0; i < k; ++i) {
@@ -84,23 +94,23 @@ double facetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& eleme
       std::sort(r.key.begin(), r.key.begin() + facetSize);
       records.push_back(r);
       if (k == 4)
-        for (int j = i + 1; j < k; ++j) {
-          const int a = elements(e, i), b = elements(e, j);
-          edges.emplace_back(std::min(a, b), std::max(a, b));
-        }
+        for (int j = i + 1; j < k; ++j) edges.push_back(edge(elements(e, i), elements(e, j)));
     }
   }
   std::sort(records.begin(), records.end());
   if (k == 3) {
     for (size_t i = 0; i < records.size(); ++i)
-      if (i == 0 || records[i].key != records[i - 1].key)
-        edges.emplace_back(records[i].key[0], records[i].key[1]);
+      if (i == 0 || !records[i].sameKey(records[i - 1]))
+        edges.push_back(edge(records[i].key[0], records[i].key[1]));
   } else {
     std::sort(edges.begin(), edges.end());
     edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   }
   double edgeSum = 0.0;
-  for (const auto& [a, b] : edges) edgeSum += (P3.row(a) - P3.row(b)).norm();
+  for (const std::uint64_t ab : edges)
+    edgeSum += (P3.row(static_cast<Eigen::Index>(ab >> 32)) -
+                P3.row(static_cast<Eigen::Index>(ab & 0xffffffffu)))
+                   .norm();
   return edgeSum / static_cast<double>(edges.size());
 }
 
@@ -112,7 +122,7 @@ void interiorFacets(const Eigen::MatrixXd& P3, const std::vector<FacetRecord>& r
   facets.clear();
   for (size_t i = 0; i < records.size();) {
     size_t j = i + 1;
-    while (j < records.size() && records[j].key == records[i].key) ++j;
+    while (j < records.size() && records[j].sameKey(records[i])) ++j;
     const auto& key = records[i].key;
     double c;
     if (facetSize == 2) {
