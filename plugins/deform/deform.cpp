@@ -59,20 +59,25 @@ std::vector<std::string> DeformFilter::produces(const ParamMap&) const {
   return {prop::distortion, prop::smoothness};
 }
 
-FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
-  Timer timer;
-  const Discretization& disc = doc.restDiscretization();  // built here unless cached
-  const double discretization = timer.seconds();
+DeformationOptions deformationOptionsOf(const ParamMap& params) {
   DeformationOptions options;
   options.energy = parseEnergy(params.getString("energy"));
   options.regularization = parseRegularization(params.getString("regularization"));
   options.beta = params.getFloat("beta");
-  if (options.regularization == Regularization::Nonuniform)
-    options.weights = doc.mesh.vertexScalar(prop::weight);
   options.localStep = parseLocalStep(params.getString("local_step"));
   options.acceleration = parseAcceleration(params.getString("acceleration"));
   options.maxIterations = params.getInt("iterations");
   options.relTolerance = params.getFloat("tolerance");
+  return options;
+}
+
+FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
+  Timer timer;
+  const Discretization& disc = doc.restDiscretization();  // built here unless cached
+  const double discretization = timer.seconds();
+  DeformationOptions options = deformationOptionsOf(params);
+  if (options.regularization == Regularization::Nonuniform)
+    options.weights = doc.mesh.vertexScalar(prop::weight);
   // One solve: no later regularization to reserve the system's couplings for.
   options.reserveRegularization = options.regularization != Regularization::None;
   if (doc.progress)

@@ -2,6 +2,7 @@
 // lARAP / Dirichlet, without, with uniform or with diffusion-weighted regularization.
 #pragma once
 
+#include "deformation/deformer.h"
 #include "pipeline/filter.h"
 
 namespace diffreg {
@@ -12,6 +13,10 @@ namespace diffreg {
 /// pipeline loaded) and writes diffreg:distortion and diffreg:smoothness per element. Report
 /// data: energy, regularization, beta, initial_guess, iterations, converged, energies.
 /// Records the edit in Document::state (keys "deform.*") for the measure filter.
+/// The deformation options the deform filter's parameters say (energy, regularization, beta,
+/// local_step, acceleration, iterations, tolerance); weights and progress are the caller's.
+DeformationOptions deformationOptionsOf(const ParamMap& params);
+
 class DeformFilter : public Filter {
  public:
   std::string name() const override { return "deform"; }

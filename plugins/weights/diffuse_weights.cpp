@@ -45,17 +45,21 @@ std::vector<std::string> DiffuseWeightsFilter::produces(const ParamMap&) const {
   return {prop::weight};
 }
 
-FilterResult DiffuseWeightsFilter::apply(Document& doc, const ParamMap& params) const {
-  const Discretization& disc = doc.restDiscretization();
-  DiffusionWeights session(disc);
-  session.setHandles(doc.handles);
+DiffusionParams diffusionParamsOf(const ParamMap& params) {
   DiffusionParams p;
   p.t = params.getFloat("t");
   p.unit = parseTimeUnit(params.getString("t_unit"));
   p.order = parseDiffusionOrder(params.getString("order"));
   p.steps = params.getInt("steps");
   p.solve = parseDiffusionSolve(params.getString("solve"));
-  session.setParams(p);
+  return p;
+}
+
+FilterResult DiffuseWeightsFilter::apply(Document& doc, const ParamMap& params) const {
+  const Discretization& disc = doc.restDiscretization();
+  DiffusionWeights session(disc);
+  session.setHandles(doc.handles);
+  session.setParams(diffusionParamsOf(params));
   const Eigen::VectorXd x = session.solve();
   doc.mesh.setVertexScalar(prop::weight, x);
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "pipeline/filter.h"
+#include "weights/diffusion.h"
 
 namespace diffreg {
 
@@ -10,6 +11,9 @@ namespace diffreg {
 /// (first|second|implicit_euler), steps (int, implicit Euler). Needs handles; produces
 /// prop::weight. Report data: t_absolute and the min, max and mean weight over referenced
 /// vertices.
+/// The diffusion parameters diffuse_weights's parameters say (t, t_unit, order, steps, solve).
+DiffusionParams diffusionParamsOf(const ParamMap& params);
+
 class DiffuseWeightsFilter : public Filter {
  public:
   std::string name() const override { return "diffuse_weights"; }
