@@ -4,6 +4,8 @@
 #include "convert.h"
 
 #include "core/error.h"
+#include "deform/deform.h"
+#include "weights/diffuse_weights.h"
 #include "deformation/deformer.h"
 #include "discretization/discretization.h"
 #include "weights/diffusion.h"
@@ -19,29 +21,6 @@ ParamMap paramsOf(const std::string& filter, const std::map<std::string, std::st
   return ParamMap(filter, Registry::builtin().get(filter).params(), values);
 }
 
-// The options of the deform filter's parameters (plugins/deform/deform.cpp maps them the same).
-DeformationOptions deformationOptions(const ParamMap& params) {
-  DeformationOptions options;
-  options.energy = parseEnergy(params.getString("energy"));
-  options.regularization = parseRegularization(params.getString("regularization"));
-  options.beta = params.getFloat("beta");
-  options.localStep = parseLocalStep(params.getString("local_step"));
-  options.acceleration = parseAcceleration(params.getString("acceleration"));
-  options.maxIterations = params.getInt("iterations");
-  options.relTolerance = params.getFloat("tolerance");
-  return options;
-}
-
-DiffusionParams diffusionParams(const ParamMap& params) {
-  DiffusionParams p;
-  p.t = params.getFloat("t");
-  p.unit = parseTimeUnit(params.getString("t_unit"));
-  p.order = parseDiffusionOrder(params.getString("order"));
-  p.steps = params.getInt("steps");
-  p.solve = parseDiffusionSolve(params.getString("solve"));
-  return p;
-}
-
 // The rest mesh and its discretization, which the C++ sessions refer to.
 struct Shape {
   Shape(const py::object& V, const py::object& E) : mesh(toMesh(V, E)), disc(mesh) {}
@@ -54,7 +33,7 @@ class PyDiffusionWeights {
   PyDiffusionWeights(const py::object& V, const py::object& E, const py::kwargs& kwargs)
       : shape_(std::make_unique<Shape>(V, E)), session_(shape_->disc) {
     values_ = paramsOf("diffuse_weights", toParamText(kwargs)).text();
-    session_.setParams(diffusionParams(paramsOf("diffuse_weights", values_)));
+    session_.setParams(diffusionParamsOf(paramsOf("diffuse_weights", values_)));
   }
   void setHandles(const py::object& handles, const py::object& ranges,
                   const py::object& magnitudes) {
@@ -68,7 +47,7 @@ class PyDiffusionWeights {
     std::map<std::string, std::string> values = values_;
     for (const auto& [key, value] : toParamText(kwargs)) values[key] = value;
     const ParamMap params = paramsOf("diffuse_weights", values);
-    session_.setParams(diffusionParams(params));
+    session_.setParams(diffusionParamsOf(params));
     values_ = params.text();
   }
   py::array solve() {
@@ -119,7 +98,7 @@ class PyDeformationSession {
   PyDeformationSession(const py::object& V, const py::object& E, const py::object& weights,
                        const py::kwargs& kwargs)
       : shape_(std::make_unique<Shape>(V, E)) {
-    DeformationOptions options = deformationOptions(paramsOf("deform", toParamText(kwargs)));
+    DeformationOptions options = deformationOptionsOf(paramsOf("deform", toParamText(kwargs)));
     if (options.regularization == Regularization::Nonuniform) {
       if (weights.is_none())
         throw InvalidParameter("DeformationSession: regularization nonuniform needs weights");
@@ -169,38 +148,32 @@ class PyDeformationSession {
     session_->setWeights(toVector(weights, "weights", shape_->mesh.numVertices()));
   }
   py::tuple solve(const py::object& iterations, const py::object& tolerance) {
-    const auto [cap, tol] = limits(iterations, tolerance);
-    DeformationResult r;
-    {
-      py::gil_scoped_release release;
-      r = session_->solve(cap, tol);
-    }
-    return finish(r);
+    return run(iterations, tolerance, [&](int cap, double tol) { return session_->solve(cap, tol); });
   }
   py::tuple solveFrom(const py::object& initial, const py::object& iterations,
                       const py::object& tolerance) {
-    const auto [cap, tol] = limits(iterations, tolerance);
     const Eigen::MatrixXd X0 =
         toMatrix(initial, "initial", shape_->mesh.numVertices(), 3).leftCols(shape_->disc.dim());
-    DeformationResult r;
-    {
-      py::gil_scoped_release release;
-      r = session_->solveFrom(X0, cap, tol);
-    }
-    return finish(r);
+    return run(iterations, tolerance,
+               [&](int cap, double tol) { return session_->solveFrom(X0, cap, tol); });
   }
   py::tuple resume(const py::object& iterations, const py::object& tolerance) {
-    const auto [cap, tol] = limits(iterations, tolerance);
-    DeformationResult r;
-    {
-      py::gil_scoped_release release;
-      r = session_->resume(cap, tol);
-    }
-    return finish(r);
+    return run(iterations, tolerance, [&](int cap, double tol) { return session_->resume(cap, tol); });
   }
   py::dict stats() const { return fromStats(session_->stats()); }
 
  private:
+  /// `solve(cap, tolerance)` with the limits checked and the GIL released while it runs.
+  template <class Solve>
+  py::tuple run(const py::object& iterations, const py::object& tolerance, Solve&& solve) {
+    const auto [cap, tol] = limits(iterations, tolerance);
+    DeformationResult r;
+    {
+      py::gil_scoped_release release;
+      r = solve(cap, tol);
+    }
+    return finish(r);
+  }
   std::pair<int, double> limits(const py::object& iterations, const py::object& tolerance) const {
     std::map<std::string, std::string> values;
     py::dict kwargs;
