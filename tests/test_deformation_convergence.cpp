@@ -218,11 +218,11 @@ TEST_CASE("scaling the input by 100 scales the converged output by 100 in as man
 
 TEST_CASE("local step and acceleration names parse; unknown ones list the valid names",
           "[deformation][convergence]") {
-  CHECK(parseLocalStep("exact") == LocalStep::Exact);
-  CHECK(parseLocalStep("reference") == LocalStep::Reference);
-  CHECK(parseAcceleration("lbfgs") == Acceleration::Lbfgs);
-  CHECK_THROWS_WITH(parseLocalStep("foo"),
+  CHECK(parseEnum<LocalStep>("exact") == LocalStep::Exact);
+  CHECK(parseEnum<LocalStep>("reference") == LocalStep::Reference);
+  CHECK(parseEnum<Acceleration>("lbfgs") == Acceleration::Lbfgs);
+  CHECK_THROWS_WITH(parseEnum<LocalStep>("foo"),
                     Catch::Contains("local_step") && Catch::Contains("exact, reference"));
-  CHECK_THROWS_WITH(parseAcceleration("fast"), Catch::Contains("acceleration") &&
+  CHECK_THROWS_WITH(parseEnum<Acceleration>("fast"), Catch::Contains("acceleration") &&
                                                    Catch::Contains("lbfgs, anderson, none"));
 }

@@ -13,15 +13,15 @@ using namespace diffreg::testing;
 
 TEST_CASE("energy and regularization names parse and unknown names list the valid ones",
           "[deformation][energy]") {
-  for (Energy e : kAllEnergies) CHECK(parseEnergy(toString(e)) == e);
+  for (Energy e : kAllEnergies) CHECK(parseEnum<Energy>(toString(e)) == e);
   for (Regularization r :
        {Regularization::None, Regularization::Uniform, Regularization::Nonuniform})
-    CHECK(parseRegularization(toString(r)) == r);
-  CHECK_THROWS_MATCHES(parseEnergy("arapp"), InvalidParameter,
+    CHECK(parseEnum<Regularization>(toString(r)) == r);
+  CHECK_THROWS_MATCHES(parseEnum<Energy>("arapp"), InvalidParameter,
                        Catch::Matchers::Message("energy: unknown energy 'arapp' (valid: arap, "
                                                 "asap, larap, dirichlet)"));
   CHECK_THROWS_MATCHES(
-      parseRegularization("smooth"), InvalidParameter,
+      parseEnum<Regularization>("smooth"), InvalidParameter,
       Catch::Matchers::Message(
           "regularization: unknown mode 'smooth' (valid: none, uniform, nonuniform)"));
 }

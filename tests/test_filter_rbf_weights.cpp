@@ -45,7 +45,7 @@ TEST_CASE("rbf_weights in a pipeline is the library's Gaussian sum on the rest s
     Document d = input;
     const nlohmann::json entry = runOne(d, "rbf_weights", {{"distance", distance}});
     const Eigen::VectorXd expected =
-        rbfWeights(input.mesh, input.handles, 0.1 * diagonal, parseRbfDistance(distance));
+        rbfWeights(input.mesh, input.handles, 0.1 * diagonal, parseEnum<RbfDistance>(distance));
     const Eigen::VectorXd got = d.mesh.vertexScalar(prop::weight);
     CHECK((got - expected).cwiseAbs().maxCoeff() < 1e-12);
     CHECK(entry["sigma_absolute"].get<double>() == Approx(0.1 * diagonal));

@@ -197,9 +197,9 @@ TEST_CASE("The built-in registry holds diffuse_weights with its parameter table"
   CHECK(filter.produces(defaults) == std::vector<std::string>{prop::weight});
   CHECK(filter.description().find("Computer-Aided Design") != std::string::npos);
   // Every parameter choice maps onto the library's own names.
-  for (const auto& unit : specs[1].choices) CHECK(toString(parseTimeUnit(unit)) == unit);
-  for (const auto& order : specs[2].choices) CHECK(toString(parseDiffusionOrder(order)) == order);
-  for (const auto& solve : specs[4].choices) CHECK(toString(parseDiffusionSolve(solve)) == solve);
+  for (const auto& unit : specs[1].choices) CHECK(toString(parseEnum<TimeUnit>(unit)) == unit);
+  for (const auto& order : specs[2].choices) CHECK(toString(parseEnum<DiffusionOrder>(order)) == order);
+  for (const auto& solve : specs[4].choices) CHECK(toString(parseEnum<DiffusionSolve>(solve)) == solve);
 }
 
 TEST_CASE("diffuse_weights in a pipeline equals the one-shot library function") {
@@ -219,7 +219,7 @@ TEST_CASE("diffuse_weights in a pipeline equals the one-shot library function") 
 
     DiffusionParams params;
     params.t = 0.02;
-    params.order = parseDiffusionOrder(order);
+    params.order = parseEnum<DiffusionOrder>(order);
     params.steps = 20;
     const Eigen::VectorXd expected = diffuseWeights(Discretization(doc.mesh), doc.handles, params);
     CHECK((x - expected).cwiseAbs().maxCoeff() <= 1e-12);

@@ -258,6 +258,6 @@ TEST_CASE("Bad handles and parameters are clear errors", "[weights]") {
   CHECK_THROWS_AS(w.setHandles({{0}}, {1.0}, {-0.1}), InvalidParameter);
   CHECK_THROWS_AS(w.setParams(params(0.0, DiffusionOrder::First)), InvalidParameter);
   CHECK_THROWS_AS(w.setParams(params(NAN, DiffusionOrder::First)), InvalidParameter);
-  CHECK_THROWS_WITH(parseDiffusionOrder("third"), Catch::Contains("first, second, implicit_euler"));
-  CHECK_THROWS_WITH(parseTimeUnit("km"), Catch::Contains("absolute, diagonal, mean_edge2"));
+  CHECK_THROWS_WITH(parseEnum<DiffusionOrder>("third"), Catch::Contains("first, second, implicit_euler"));
+  CHECK_THROWS_WITH(parseEnum<TimeUnit>("km"), Catch::Contains("absolute, diagonal, mean_edge2"));
 }

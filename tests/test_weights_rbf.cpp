@@ -133,9 +133,9 @@ TEST_CASE("Geodesic distances reject bad sources", "[weights][rbf]") {
 }
 
 TEST_CASE("RBF distance names", "[weights][rbf]") {
-  CHECK(parseRbfDistance("euclidean") == RbfDistance::Euclidean);
-  CHECK(parseRbfDistance(toString(RbfDistance::Geodesic)) == RbfDistance::Geodesic);
-  CHECK_THROWS_WITH(parseRbfDistance("manhattan"),
+  CHECK(parseEnum<RbfDistance>("euclidean") == RbfDistance::Euclidean);
+  CHECK(parseEnum<RbfDistance>(toString(RbfDistance::Geodesic)) == RbfDistance::Geodesic);
+  CHECK_THROWS_WITH(parseEnum<RbfDistance>("manhattan"),
                     Catch::Contains("manhattan") && Catch::Contains("euclidean, geodesic"));
 }
 

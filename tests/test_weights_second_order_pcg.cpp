@@ -196,8 +196,8 @@ TEST_CASE("Magnitudes all zero give zero weights without CG iterations", "[weigh
 
 TEST_CASE("The second-order solve parses its names", "[weights][pcg]") {
   for (DiffusionSolve s : {DiffusionSolve::Pcg, DiffusionSolve::Direct})
-    CHECK(parseDiffusionSolve(toString(s)) == s);
+    CHECK(parseEnum<DiffusionSolve>(toString(s)) == s);
   CHECK(DiffusionParams().solve == DiffusionSolve::Pcg);
-  CHECK_THROWS_AS(parseDiffusionSolve("lu"), InvalidParameter);
-  CHECK_THROWS_WITH(parseDiffusionSolve("lu"), Catch::Contains("pcg, direct"));
+  CHECK_THROWS_AS(parseEnum<DiffusionSolve>("lu"), InvalidParameter);
+  CHECK_THROWS_WITH(parseEnum<DiffusionSolve>("lu"), Catch::Contains("pcg, direct"));
 }

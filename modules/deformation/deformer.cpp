@@ -9,25 +9,6 @@
 
 namespace diffreg {
 
-const char* toString(Acceleration acceleration) {
-  switch (acceleration) {
-    case Acceleration::Lbfgs:
-      return "lbfgs";
-    case Acceleration::Anderson:
-      return "anderson";
-    case Acceleration::None:
-      return "none";
-  }
-  return "?";
-}
-
-Acceleration parseAcceleration(const std::string& name) {
-  for (Acceleration a : {Acceleration::Lbfgs, Acceleration::Anderson, Acceleration::None})
-    if (name == toString(a)) return a;
-  throw InvalidParameter("acceleration: unknown acceleration '" + name +
-                         "' (valid: lbfgs, anderson, none)");
-}
-
 DeformationSession::DeformationSession(const Discretization& disc,
                                        const DeformationOptions& options)
     : disc_(disc),

@@ -25,9 +25,16 @@ enum class Acceleration {
   Lbfgs,     ///< L-BFGS in the positions, the system matrix as initial Hessian, line search
   Anderson,  ///< Anderson acceleration of the positions with an energy safeguard
 };
-const char* toString(Acceleration acceleration);
-/// "lbfgs", "anderson" or "none". \throw InvalidParameter for any other name, listing the valid ones.
-Acceleration parseAcceleration(const std::string& name);
+template <>
+struct EnumTable<Acceleration> {
+  static constexpr const char* parameter = "acceleration";
+  static constexpr const char* noun = "acceleration";
+  static constexpr EnumName<Acceleration> names[] = {
+      {Acceleration::Lbfgs, "lbfgs"},
+      {Acceleration::Anderson, "anderson"},
+      {Acceleration::None, "none"},
+  };
+};
 
 /// The default stationarity tolerance of the exact local step: a run stops when one plain
 /// local/global iteration from its shape would lower the energy by less than this fraction.
@@ -36,11 +43,13 @@ Acceleration parseAcceleration(const std::string& name);
 constexpr double kDefaultTolerance = 1e-7;
 /// The default cap on the iterations; converged runs stay far below it.
 constexpr int kDefaultIterations = 5000;
+/// The largest cap any front end accepts (filters, editor, Python).
+constexpr int kMaxIterations = 100000;
 
 struct DeformationOptions {
   Energy energy = Energy::Arap;
   Regularization regularization = Regularization::None;
-  double beta = 0.0;        ///< uniform beta
+  double beta = 0.5;        ///< uniform beta
   Eigen::VectorXd weights;  ///< per-vertex weights in [0, 1] for nonuniform
   /// Exact (block coordinate descent on eq. 3, the default) or the reference code's local step.
   LocalStep localStep = LocalStep::Exact;

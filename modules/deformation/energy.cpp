@@ -17,56 +17,18 @@ namespace {
 
 struct EnergyEntry {
   Energy id;
-  const char* name;
   const EnergyModel& (*model)();
 };
 
 const std::array<EnergyEntry, 4> kEnergies = {{
-    {Energy::Arap, "arap", arapEnergy},
-    {Energy::Asap, "asap", asapEnergy},
-    {Energy::Larap, "larap", larapEnergy},
-    {Energy::Dirichlet, "dirichlet", dirichletEnergy},
+    {Energy::Arap, arapEnergy},
+    {Energy::Asap, asapEnergy},
+    {Energy::Larap, larapEnergy},
+    {Energy::Dirichlet, dirichletEnergy},
 }};
 
-std::string energyNames() {
-  std::string names;
-  for (const EnergyEntry& e : kEnergies) names += (names.empty() ? "" : ", ") + std::string(e.name);
-  return names;
-}
 
 }  // namespace
-
-const char* toString(Energy energy) {
-  for (const EnergyEntry& e : kEnergies)
-    if (e.id == energy) return e.name;
-  return "?";
-}
-
-const char* toString(Regularization regularization) {
-  switch (regularization) {
-    case Regularization::None:
-      return "none";
-    case Regularization::Uniform:
-      return "uniform";
-    case Regularization::Nonuniform:
-      return "nonuniform";
-  }
-  return "?";
-}
-
-Energy parseEnergy(const std::string& name) {
-  for (const EnergyEntry& e : kEnergies)
-    if (name == e.name) return e.id;
-  throw InvalidParameter("energy: unknown energy '" + name + "' (valid: " + energyNames() + ")");
-}
-
-Regularization parseRegularization(const std::string& name) {
-  for (Regularization r :
-       {Regularization::None, Regularization::Uniform, Regularization::Nonuniform})
-    if (name == toString(r)) return r;
-  throw InvalidParameter("regularization: unknown mode '" + name +
-                         "' (valid: none, uniform, nonuniform)");
-}
 
 const EnergyModel& energyModel(Energy energy) {
   for (const EnergyEntry& e : kEnergies)

@@ -14,6 +14,7 @@
 //    energy does not penalize.
 #pragma once
 
+#include "core/names.h"
 #include "discretization/discretization.h"
 
 #include <Eigen/Core>
@@ -35,14 +36,28 @@ enum class Regularization {
   Nonuniform,  ///< per-element and per-facet beta from vertex weights       (paper eq. 3)
 };
 
-const char* toString(Energy energy);
-const char* toString(Regularization regularization);
-/// "arap", "asap", "larap" or "dirichlet".
-/// \throw InvalidParameter for any other name, listing the valid ones.
-Energy parseEnergy(const std::string& name);
-/// "none", "uniform" or "nonuniform".
-/// \throw InvalidParameter for any other name, listing the valid ones.
-Regularization parseRegularization(const std::string& name);
+template <>
+struct EnumTable<Energy> {
+  static constexpr const char* parameter = "energy";
+  static constexpr const char* noun = "energy";
+  static constexpr EnumName<Energy> names[] = {
+      {Energy::Arap, "arap"},
+      {Energy::Asap, "asap"},
+      {Energy::Larap, "larap"},
+      {Energy::Dirichlet, "dirichlet"},
+  };
+};
+
+template <>
+struct EnumTable<Regularization> {
+  static constexpr const char* parameter = "regularization";
+  static constexpr const char* noun = "mode";
+  static constexpr EnumName<Regularization> names[] = {
+      {Regularization::None, "none"},
+      {Regularization::Uniform, "uniform"},
+      {Regularization::Nonuniform, "nonuniform"},
+  };
+};
 
 /// One energy: what its residual removes from F_k and how it fits its targets.
 class EnergyModel {

@@ -45,17 +45,6 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
 
 }  // namespace
 
-const char* toString(LocalStep step) {
-  return step == LocalStep::Exact ? "exact" : "reference";
-}
-
-LocalStep parseLocalStep(const std::string& name) {
-  if (name == "exact") return LocalStep::Exact;
-  if (name == "reference") return LocalStep::Reference;
-  throw InvalidParameter("local_step: unknown local step '" + name +
-                         "' (valid: exact, reference)");
-}
-
 double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep step,
                  const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e,
                  Eigen::MatrixXd& F) {

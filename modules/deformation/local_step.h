@@ -11,6 +11,7 @@
 //    regularizer this is not a minimization in T_k and local/global is not a descent method.
 #pragma once
 
+#include "core/names.h"
 #include "deformation/regularizer.h"
 #include "deformation/residual_model.h"
 
@@ -23,9 +24,15 @@ enum class LocalStep {
   Reference,  ///< each target fitted to its own F_k (the reference code; not a descent method)
 };
 
-const char* toString(LocalStep step);
-/// "exact" or "reference". \throw InvalidParameter for any other name, listing the valid ones.
-LocalStep parseLocalStep(const std::string& name);
+template <>
+struct EnumTable<LocalStep> {
+  static constexpr const char* parameter = "local_step";
+  static constexpr const char* noun = "local step";
+  static constexpr EnumName<LocalStep> names[] = {
+      {LocalStep::Exact, "exact"},
+      {LocalStep::Reference, "reference"},
+  };
+};
 
 /// Gauss-Seidel sweeps of one exact local step. The coupling of the targets across facets
 /// makes smooth changes of the rotation field travel one element per sweep; measured on a

@@ -2,6 +2,8 @@
 // help); the CLI, the help text and scripts are all generated from these tables.
 #pragma once
 
+#include "core/names.h"
+
 #include <map>
 #include <string>
 #include <vector>
@@ -30,6 +32,12 @@ ParamSpec enumParam(const std::string& name, const std::string& defaultValue,
                     const std::vector<std::string>& choices, const std::string& help);
 ParamSpec stringParam(const std::string& name, const std::string& defaultValue,
                       const std::string& help);
+/// An enum parameter whose choices are the enum's name table (core/names.h), optionally after
+/// extra choices such as "auto".
+template <class E>
+ParamSpec enumParam(const std::string& name, E defaultValue, const std::string& help) {
+  return enumParam(name, toString(defaultValue), enumNames<E>(), help);
+}
 
 /// Validated values of one filter invocation, every parameter present (defaults filled in).
 class ParamMap {

@@ -473,25 +473,25 @@ ApiResponse Api::edit(const ApiRequest& r) {
                  "rbf_distance", "reference", "continue_drags"},
                 "params");
       EditParams& q = want.params;
-      if (body.contains("energy")) q.energy = parseEnergy(text(body, "energy"));
+      if (body.contains("energy")) q.energy = parseEnum<Energy>(text(body, "energy"));
       if (body.contains("regularization"))
-        q.regularization = parseRegularization(text(body, "regularization"));
+        q.regularization = parseEnum<Regularization>(text(body, "regularization"));
       if (body.contains("beta")) q.beta = number(body, "beta");
-      if (body.contains("scheme")) q.scheme = parseWeightScheme(text(body, "scheme"));
-      if (body.contains("order")) q.diffusion.order = parseDiffusionOrder(text(body, "order"));
+      if (body.contains("scheme")) q.scheme = parseEnum<WeightScheme>(text(body, "scheme"));
+      if (body.contains("order")) q.diffusion.order = parseEnum<DiffusionOrder>(text(body, "order"));
       if (body.contains("t")) q.diffusion.t = number(body, "t");
-      if (body.contains("unit")) q.diffusion.unit = parseTimeUnit(text(body, "unit"));
+      if (body.contains("unit")) q.diffusion.unit = parseEnum<TimeUnit>(text(body, "unit"));
       if (body.contains("steps")) q.diffusion.steps = integer(body.at("steps"), "'steps'");
-      if (body.contains("solve")) q.diffusion.solve = parseDiffusionSolve(text(body, "solve"));
+      if (body.contains("solve")) q.diffusion.solve = parseEnum<DiffusionSolve>(text(body, "solve"));
       if (body.contains("iterations"))
         q.iterations = integer(body.at("iterations"), "'iterations'");
       if (body.contains("tolerance")) q.tolerance = number(body, "tolerance");
-      if (body.contains("local_step")) q.localStep = parseLocalStep(text(body, "local_step"));
+      if (body.contains("local_step")) q.localStep = parseEnum<LocalStep>(text(body, "local_step"));
       if (body.contains("acceleration"))
-        q.acceleration = parseAcceleration(text(body, "acceleration"));
+        q.acceleration = parseEnum<Acceleration>(text(body, "acceleration"));
       if (body.contains("sigma")) q.rbf.sigma = number(body, "sigma");
       if (body.contains("rbf_distance"))
-        q.rbf.distance = parseRbfDistance(text(body, "rbf_distance"));
+        q.rbf.distance = parseEnum<RbfDistance>(text(body, "rbf_distance"));
       if (body.contains("reference")) q.reference = boolean(body, "reference");
       if (body.contains("continue_drags")) q.continueDrags = boolean(body, "continue_drags");
       s.setState(std::move(want));

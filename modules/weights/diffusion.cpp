@@ -12,53 +12,6 @@
 
 namespace diffreg {
 
-const char* toString(DiffusionOrder order) {
-  switch (order) {
-    case DiffusionOrder::First: return "first";
-    case DiffusionOrder::Second: return "second";
-    case DiffusionOrder::ImplicitEuler: return "implicit_euler";
-  }
-  return "?";
-}
-
-const char* toString(TimeUnit unit) {
-  switch (unit) {
-    case TimeUnit::Absolute: return "absolute";
-    case TimeUnit::Diagonal: return "diagonal";
-    case TimeUnit::MeanEdge2: return "mean_edge2";
-  }
-  return "?";
-}
-
-const char* toString(DiffusionSolve solve) {
-  switch (solve) {
-    case DiffusionSolve::Pcg:
-      return "pcg";
-    case DiffusionSolve::Direct:
-      return "direct";
-  }
-  return "?";
-}
-
-DiffusionOrder parseDiffusionOrder(const std::string& name) {
-  for (auto o : {DiffusionOrder::First, DiffusionOrder::Second, DiffusionOrder::ImplicitEuler})
-    if (name == toString(o)) return o;
-  throw InvalidParameter("diffusion order '" + name +
-                         "' is not one of: first, second, implicit_euler");
-}
-
-TimeUnit parseTimeUnit(const std::string& name) {
-  for (auto u : {TimeUnit::Absolute, TimeUnit::Diagonal, TimeUnit::MeanEdge2})
-    if (name == toString(u)) return u;
-  throw InvalidParameter("time unit '" + name + "' is not one of: absolute, diagonal, mean_edge2");
-}
-
-DiffusionSolve parseDiffusionSolve(const std::string& name) {
-  for (auto s : {DiffusionSolve::Pcg, DiffusionSolve::Direct})
-    if (name == toString(s)) return s;
-  throw InvalidParameter("second-order solve '" + name + "' is not one of: pcg, direct");
-}
-
 DiffusionWeights::DiffusionWeights(const Discretization& disc, SolverBackend backend)
     : disc_(disc), solver_(backend) {}
 

@@ -2,6 +2,7 @@
 // from the handles with Dirichlet values m_j, global time t and per-handle range r_j.
 #pragma once
 
+#include "core/names.h"
 #include "discretization/discretization.h"
 #include "handles/handles.h"
 #include "solver/solver.h"
@@ -29,13 +30,41 @@ enum class DiffusionSolve {
   Direct,  ///< Cholesky of B itself, whose pattern has K N^-1 K's 2-ring fill (for comparison)
 };
 
-const char* toString(DiffusionOrder order);
-const char* toString(TimeUnit unit);
-const char* toString(DiffusionSolve solve);
-/// \throw InvalidParameter for an unknown name, listing the valid ones.
-DiffusionOrder parseDiffusionOrder(const std::string& name);
-TimeUnit parseTimeUnit(const std::string& name);
-DiffusionSolve parseDiffusionSolve(const std::string& name);
+template <>
+struct EnumTable<DiffusionOrder> {
+  static constexpr const char* parameter = "order";
+  static constexpr const char* noun = "diffusion order";
+  static constexpr EnumName<DiffusionOrder> names[] = {
+      {DiffusionOrder::First, "first"},
+      {DiffusionOrder::Second, "second"},
+      {DiffusionOrder::ImplicitEuler, "implicit_euler"},
+  };
+};
+
+template <>
+struct EnumTable<TimeUnit> {
+  static constexpr const char* parameter = "t_unit";
+  static constexpr const char* noun = "time unit";
+  static constexpr EnumName<TimeUnit> names[] = {
+      {TimeUnit::Absolute, "absolute"},
+      {TimeUnit::Diagonal, "diagonal"},
+      {TimeUnit::MeanEdge2, "mean_edge2"},
+  };
+};
+
+template <>
+struct EnumTable<DiffusionSolve> {
+  static constexpr const char* parameter = "solve";
+  static constexpr const char* noun = "second-order solve";
+  static constexpr EnumName<DiffusionSolve> names[] = {
+      {DiffusionSolve::Pcg, "pcg"},
+      {DiffusionSolve::Direct, "direct"},
+  };
+};
+
+/// The range of t (in any unit) and of the implicit Euler steps every front end accepts.
+constexpr double kMinDiffusionTime = 1e-12, kMaxDiffusionTime = 1e6;
+constexpr int kMaxDiffusionSteps = 100000;
 
 struct DiffusionParams {
   double t = 0.01;

@@ -11,22 +11,6 @@
 
 namespace diffreg {
 
-const char* toString(RbfDistance distance) {
-  switch (distance) {
-    case RbfDistance::Euclidean:
-      return "euclidean";
-    case RbfDistance::Geodesic:
-      return "geodesic";
-  }
-  return "?";
-}
-
-RbfDistance parseRbfDistance(const std::string& name) {
-  for (auto d : {RbfDistance::Euclidean, RbfDistance::Geodesic})
-    if (name == toString(d)) return d;
-  throw InvalidParameter("rbf distance '" + name + "' is not one of: euclidean, geodesic");
-}
-
 double rbfSigmaFromDiagonal(const Mesh& mesh, double fraction) {
   if (!(fraction > 0.0) || !std::isfinite(fraction))
     throw InvalidParameter("rbf: sigma fraction must be > 0 (got " + std::to_string(fraction) +

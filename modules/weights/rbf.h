@@ -6,6 +6,7 @@
 // which is the paper's argument for diffused weights.
 #pragma once
 
+#include "core/names.h"
 #include "handles/handles.h"
 #include "mesh/mesh.h"
 
@@ -19,10 +20,18 @@ enum class RbfDistance {
   Geodesic,   ///< heat-method geodesic distance (weights/geodesic.h)
 };
 
-/// "euclidean" or "geodesic".
-const char* toString(RbfDistance distance);
-/// \throw InvalidParameter for an unknown name, listing the valid ones.
-RbfDistance parseRbfDistance(const std::string& name);
+template <>
+struct EnumTable<RbfDistance> {
+  static constexpr const char* parameter = "distance";
+  static constexpr const char* noun = "rbf distance";
+  static constexpr EnumName<RbfDistance> names[] = {
+      {RbfDistance::Euclidean, "euclidean"},
+      {RbfDistance::Geodesic, "geodesic"},
+  };
+};
+
+/// The range of sigma (in any unit) every front end accepts.
+constexpr double kMinRbfSigma = 1e-12, kMaxRbfSigma = 1e6;
 
 /// sigma in length units from a fraction of the bounding-box diagonal of the mesh's vertices.
 /// \throw InvalidParameter for fraction <= 0 (or not finite), InvalidMesh for an empty mesh.

@@ -23,27 +23,30 @@ std::string DeformFilter::description() const {
 }
 
 std::vector<ParamSpec> DeformFilter::params() const {
+  // Defaults and choices come from DeformationOptions and the enums' name tables.
+  const DeformationOptions defaults;
   return {
-      enumParam("energy", "arap", {"arap", "asap", "larap", "dirichlet"},
+      enumParam("energy", defaults.energy,
                 "Deformation energy: arap, asap, larap (linearized ARAP) or dirichlet."),
-      enumParam("regularization", "none", {"none", "uniform", "nonuniform"},
+      enumParam("regularization", defaults.regularization,
                 "none; uniform (one beta everywhere, eq. 2); nonuniform (per-element beta from "
                 "the vertex weights diffreg:weight, eq. 3; run diffuse_weights first)."),
-      floatParam("beta", "0.5", 0.0, 1.0, "Regularization strength for regularization=uniform."),
-      enumParam("local_step", "exact", {"exact", "reference"},
+      floatParam("beta", formatNumber(defaults.beta), 0.0, 1.0,
+                 "Regularization strength for regularization=uniform."),
+      enumParam("local_step", defaults.localStep,
                 "exact: each rotation minimizes the regularized energy with its neighbours "
                 "fixed (coloured Gauss-Seidel), so the energy never rises; reference: each "
                 "rotation fitted to its own element, as the paper's reference code (with "
                 "regularization not a descent method; for reproducing the paper)."),
-      enumParam("acceleration", "lbfgs", {"lbfgs", "anderson", "none"},
+      enumParam("acceleration", defaults.acceleration,
                 "lbfgs: quasi-Newton steps with the local/global matrix as initial Hessian and "
                 "a line search on the energy; anderson: Anderson acceleration of the iterates, "
                 "taken only when it lowers the energy; none: plain local/global. Exact local "
                 "step only."),
-      intParam("iterations", std::to_string(kDefaultIterations), 1, 100000,
+      intParam("iterations", std::to_string(defaults.maxIterations), 1, kMaxIterations,
                "Cap on the local/global iterations (ARAP, and ASAP on surfaces and solids); "
                "converged runs stop well before it."),
-      floatParam("tolerance", "1e-7", 0.0, 1.0,
+      floatParam("tolerance", formatNumber(defaults.relTolerance), 0.0, 1.0,
                  "Stationarity: stop when one more plain local/global iteration would lower the "
                  "energy by less than this fraction (reference local step: when an iteration "
                  "changes it by less)."),
@@ -61,11 +64,11 @@ std::vector<std::string> DeformFilter::produces(const ParamMap&) const {
 
 DeformationOptions deformationOptionsOf(const ParamMap& params) {
   DeformationOptions options;
-  options.energy = parseEnergy(params.getString("energy"));
-  options.regularization = parseRegularization(params.getString("regularization"));
+  options.energy = parseEnum<Energy>(params.getString("energy"));
+  options.regularization = parseEnum<Regularization>(params.getString("regularization"));
   options.beta = params.getFloat("beta");
-  options.localStep = parseLocalStep(params.getString("local_step"));
-  options.acceleration = parseAcceleration(params.getString("acceleration"));
+  options.localStep = parseEnum<LocalStep>(params.getString("local_step"));
+  options.acceleration = parseEnum<Acceleration>(params.getString("acceleration"));
   options.maxIterations = params.getInt("iterations");
   options.relTolerance = params.getFloat("tolerance");
   return options;

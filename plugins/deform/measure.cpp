@@ -45,8 +45,10 @@ std::string MeasureFilter::description() const {
 }
 
 std::vector<ParamSpec> MeasureFilter::params() const {
+  std::vector<std::string> energies = enumNames<Energy>();
+  energies.insert(energies.begin(), "auto");
   return {
-      enumParam("energy", "auto", {"auto", "arap", "asap", "larap", "dirichlet"},
+      enumParam("energy", "auto", energies,
                 "Energy whose residuals define D_k; auto: the deform filter's (else arap)."),
       stringParam("reference", "",
                   "Mesh file to measure Dist against; empty: the same edit solved without "
@@ -68,11 +70,11 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
   const Discretization& disc = restFromFile ? *restFromFile : doc.restDiscretization();
   std::string energyName = params.getString("energy");
   if (energyName == "auto") energyName = stateOr(doc, "deform.energy", "arap");
-  const Energy energy = parseEnergy(energyName);
+  const Energy energy = parseEnum<Energy>(energyName);
   const Eigen::MatrixXd positions = currentPositions(doc, disc);
 
   // The energy is measured with the regularization the deformation used.
-  const Regularization mode = parseRegularization(stateOr(doc, "deform.regularization", "none"));
+  const Regularization mode = parseEnum<Regularization>(stateOr(doc, "deform.regularization", "none"));
   const double beta = std::stod(stateOr(doc, "deform.beta", "0"));
   Eigen::VectorXd vertexWeights;
   if (mode == Regularization::Nonuniform) vertexWeights = doc.mesh.vertexScalar(prop::weight);
@@ -93,9 +95,9 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
     } else {
       const Discretization& restDisc = doc.restDiscretization();
       DeformationOptions options;
-      options.energy = parseEnergy(doc.state.at("deform.energy"));
-      options.localStep = parseLocalStep(stateOr(doc, "deform.local_step", "exact"));
-      options.acceleration = parseAcceleration(stateOr(doc, "deform.acceleration", "lbfgs"));
+      options.energy = parseEnum<Energy>(doc.state.at("deform.energy"));
+      options.localStep = parseEnum<LocalStep>(stateOr(doc, "deform.local_step", "exact"));
+      options.acceleration = parseEnum<Acceleration>(stateOr(doc, "deform.acceleration", "lbfgs"));
       options.maxIterations = std::stoi(doc.state.at("deform.iterations"));
       options.relTolerance = std::stod(doc.state.at("deform.tolerance"));
       DeformationSession session(restDisc, options);

@@ -21,19 +21,21 @@ std::string DiffuseWeightsFilter::description() const {
 }
 
 std::vector<ParamSpec> DiffuseWeightsFilter::params() const {
+  // Defaults, choices and limits come from DiffusionParams and weights/diffusion.h.
+  const DiffusionParams defaults;
   return {
-      floatParam("t", "0.01", 1e-12, 1e6,
+      floatParam("t", formatNumber(defaults.t), kMinDiffusionTime, kMaxDiffusionTime,
                  "Diffusion time, in the unit t_unit; larger t spreads the weights further."),
-      enumParam("t_unit", "diagonal", {"absolute", "diagonal", "mean_edge2"},
+      enumParam("t_unit", defaults.unit,
                 "Unit of t: absolute (length^2), diagonal (squared bounding-box diagonal; "
                 "independent of scale and nearly of resolution) or mean_edge2 (squared mean edge "
                 "length, the paper's)."),
-      enumParam("order", "second", {"first", "second", "implicit_euler"},
+      enumParam("order", defaults.order,
                 "Time discretization: first (eq. 7), second (eq. 8, Dirichlet-consistent) or "
                 "implicit_euler (eq. 6 with `steps` steps, the reference)."),
-      intParam("steps", "100", 1, 100000,
+      intParam("steps", std::to_string(defaults.steps), 1, kMaxDiffusionSteps,
                "Number of implicit Euler steps (order=implicit_euler only)."),
-      enumParam("solve", "pcg", {"pcg", "direct"},
+      enumParam("solve", defaults.solve,
                 "How the second-order system is solved (order=second only): pcg (conjugate "
                 "gradients preconditioned by one factorization with the mesh's 1-ring pattern) "
                 "or direct (Cholesky of the second-order matrix, whose 2-ring pattern is several "
@@ -48,10 +50,10 @@ std::vector<std::string> DiffuseWeightsFilter::produces(const ParamMap&) const {
 DiffusionParams diffusionParamsOf(const ParamMap& params) {
   DiffusionParams p;
   p.t = params.getFloat("t");
-  p.unit = parseTimeUnit(params.getString("t_unit"));
-  p.order = parseDiffusionOrder(params.getString("order"));
+  p.unit = parseEnum<TimeUnit>(params.getString("t_unit"));
+  p.order = parseEnum<DiffusionOrder>(params.getString("order"));
   p.steps = params.getInt("steps");
-  p.solve = parseDiffusionSolve(params.getString("solve"));
+  p.solve = parseEnum<DiffusionSolve>(params.getString("solve"));
   return p;
 }
 

@@ -27,10 +27,10 @@ std::string RbfWeightsFilter::description() const {
 
 std::vector<ParamSpec> RbfWeightsFilter::params() const {
   return {
-      enumParam("distance", "geodesic", {"euclidean", "geodesic"},
+      enumParam("distance", RbfDistance::Geodesic,
                 "Distance to a handle: euclidean (straight line, jumps across gaps) or geodesic "
                 "(heat method: CGAL on triangle meshes, through the volume on tet meshes)."),
-      floatParam("sigma", "0.1", 1e-12, 1e6,
+      floatParam("sigma", "0.1", kMinRbfSigma, kMaxRbfSigma,
                  "Gaussian width, in the unit sigma_unit; a handle's range r_j multiplies it. A "
                  "weight falls to 1/e of m_j at distance r_j sigma."),
       enumParam("sigma_unit", "diagonal", {"diagonal", "absolute"},
@@ -54,7 +54,7 @@ FilterResult RbfWeightsFilter::apply(Document& doc, const ParamMap& params) cons
                            ? params.getFloat("sigma")
                            : rbfSigmaFromDiagonal(rest, params.getFloat("sigma"));
   const Eigen::VectorXd x =
-      rbfWeights(rest, doc.handles, sigma, parseRbfDistance(params.getString("distance")),
+      rbfWeights(rest, doc.handles, sigma, parseEnum<RbfDistance>(params.getString("distance")),
                  params.getBool("clamp"));
   doc.mesh.setVertexScalar(prop::weight, x);
 

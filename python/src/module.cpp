@@ -88,8 +88,8 @@ py::dict measureArrays(const py::object& V, const py::object& E, const py::objec
   if (positions.cols() < disc.dim() || positions.cols() > 3)
     throw InvalidParameter("X: expected shape (" + std::to_string(n) + ", 3), got (" +
                            std::to_string(n) + ", " + std::to_string(positions.cols()) + ")");
-  const Energy energy = parseEnergy(params.getString("energy"));
-  const Regularization mode = parseRegularization(params.getString("regularization"));
+  const Energy energy = parseEnum<Energy>(params.getString("energy"));
+  const Regularization mode = parseEnum<Regularization>(params.getString("regularization"));
   Eigen::VectorXd w;
   if (mode == Regularization::Nonuniform) {
     if (weights.is_none())

@@ -140,7 +140,7 @@ class PyDeformationSession {
     const ParamMap params = paramsOf("deform", values);
     Eigen::VectorXd w;
     if (!weights.is_none()) w = toVector(weights, "weights", shape_->mesh.numVertices());
-    session_->setRegularization(parseRegularization(params.getString("regularization")),
+    session_->setRegularization(parseEnum<Regularization>(params.getString("regularization")),
                                 params.getFloat("beta"), w);
   }
   void setBeta(double beta) { session_->setBeta(beta); }

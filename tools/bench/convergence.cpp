@@ -76,7 +76,7 @@ Prepared prepareScenario(Scenario& s, const std::string& file, const std::string
 DeformationOptions optionsFor(const Scenario& s, const std::string& reg) {
   DeformationOptions o;
   o.energy = Energy::Arap;
-  o.regularization = parseRegularization(reg);
+  o.regularization = parseEnum<Regularization>(reg);
   o.beta = 0.5;
   if (o.regularization == Regularization::Nonuniform) o.weights = s.weights;
   return o;
