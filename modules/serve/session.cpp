@@ -10,16 +10,6 @@
 
 namespace diffreg {
 
-const char* toString(WeightScheme scheme) {
-  return scheme == WeightScheme::Diffusion ? "diffusion" : "rbf";
-}
-
-WeightScheme parseWeightScheme(const std::string& name) {
-  if (name == "diffusion") return WeightScheme::Diffusion;
-  if (name == "rbf") return WeightScheme::Rbf;
-  throw InvalidParameter("weight scheme '" + name + "' is not one of: diffusion, rbf");
-}
-
 namespace {
 
 std::string num(double value) {
@@ -92,6 +82,96 @@ std::string workOf(const SolverStats& s) {
   return "none";
 }
 
+/// A deformation kept in line with the wanted state: the edit itself, or the same edit without
+/// regularization for Dist.
+struct TrackedDeformation {
+  std::unique_ptr<DeformationSession> session;
+  std::optional<EditState> synced;  // the state it was last brought in line with
+  Eigen::MatrixXd positions;        // n x d, its last result
+  bool converged = true;
+  long weightsSerial = -1;  // the weights its regularization was set from
+  void reset() {
+    session.reset();
+    synced.reset();
+    converged = true;
+  }
+};
+
+/// Brings `tracked` in line with `want` at the least cost: a new session for a new energy, local
+/// step or acceleration; new handles, targets or regularization (`regularized`: the edit's own,
+/// from `weights`; otherwise none); then a solve, a continued drag (only targets moved, with
+/// continueDrags) or, when `refine` and nothing changed, a resumed unconverged run. Returns
+/// whether it solved (then `result` holds the run) and the solver work in `work`.
+bool syncDeformation(const Discretization& disc, SolverBackend backend, TrackedDeformation& tracked,
+                     const EditState& want, bool regularized, const Eigen::VectorXd& weights,
+                     long weightsSerial, bool refine, DeformationResult& result,
+                     SolverStats& work) {
+  const EditParams& p = want.params;
+  const std::optional<EditState>& had = tracked.synced;
+  const bool fresh = !tracked.session || !had || had->params.energy != p.energy ||
+                     had->params.localStep != p.localStep ||
+                     had->params.acceleration != p.acceleration;
+  if (fresh) {
+    DeformationOptions options;
+    options.energy = p.energy;
+    options.regularization = regularized ? p.regularization : Regularization::None;
+    options.beta = p.beta;
+    options.localStep = p.localStep;
+    options.acceleration = p.acceleration;
+    if (options.regularization == Regularization::Nonuniform) options.weights = weights;
+    // The reference is never regularized: the smaller pattern.
+    options.reserveRegularization = regularized;
+    options.backend = backend;
+    tracked.session = std::make_unique<DeformationSession>(disc, options);
+    tracked.weightsSerial = weightsSerial;
+  }
+  DeformationSession& session = *tracked.session;
+  const SolverStats before = fresh ? SolverStats{} : session.stats();
+  bool dirty = fresh;
+  if (fresh || allVertices(*had) != allVertices(want)) {
+    session.setHandles(allVertices(want));
+    dirty = true;
+  }
+  // A drag: only targets moved since the last solve, which continues from its result.
+  bool drag = !dirty && p.continueDrags;
+  if (dirty || !sameTargets(*had, want)) {
+    session.setTargets(stackedTargets(want));
+    dirty = true;
+  }
+  if (!fresh) {
+    const EditParams& q = had->params;
+    const bool budget = q.iterations != p.iterations || q.tolerance != p.tolerance;
+    const bool regChanged =
+        regularized && (q.regularization != p.regularization ||
+                        (p.regularization == Regularization::Uniform && q.beta != p.beta) ||
+                        (p.regularization == Regularization::Nonuniform &&
+                         tracked.weightsSerial != weightsSerial));
+    if (regChanged) {
+      session.setRegularization(
+          p.regularization, p.beta,
+          p.regularization == Regularization::Nonuniform ? weights : Eigen::VectorXd());
+      tracked.weightsSerial = weightsSerial;
+    }
+    if (regChanged || budget) {
+      drag = false;
+      dirty = true;
+    }
+  }
+  // Refining: the last run stopped at its iteration budget; continue from its shape.
+  const bool refining = refine && !dirty && !tracked.converged;
+  const bool solve = dirty || refining;
+  if (solve) {
+    result = refining ? session.resume(p.iterations, p.tolerance)
+             : drag   ? session.solveFrom(tracked.positions, p.iterations, p.tolerance)
+                      : session.solve(p.iterations, p.tolerance);
+    tracked.positions = result.positions;
+    tracked.converged = result.converged;
+  }
+  tracked.synced = want;
+  work = session.stats() - before;
+  return solve;
+}
+
 }  // namespace
 
 /// The systems and the state each was last brought in line with.
@@ -100,16 +180,7 @@ struct EditSession::Systems {
   std::optional<EditState> diffusionSynced;
   std::optional<EditState> rbfSynced;
   long weightsSerial = 0;  // incremented whenever the weights change
-
-  std::unique_ptr<DeformationSession> deform;
-  std::optional<EditState> deformSynced;
-  long deformWeightsSerial = -1;
-  bool deformConverged = true;
-
-  std::unique_ptr<DeformationSession> reference;
-  std::optional<EditState> referenceSynced;
-  bool referenceConverged = true;
-  Eigen::MatrixXd referencePositions;  // n x d
+  TrackedDeformation deform, reference;
 };
 
 EditSession::EditSession(Mesh mesh, SolverBackend backend)
@@ -171,14 +242,10 @@ void EditSession::validate(const EditState& s) const {
   }
   const EditParams& p = s.params;
   checkRange("beta", p.beta, 0.0, 1.0, false);
-  checkRange("t", p.diffusion.t, 0.0, 1e6, true);
-  if (p.diffusion.steps < 1 || p.diffusion.steps > 100000)
-    throw InvalidParameter("steps = " + std::to_string(p.diffusion.steps) +
-                           " is outside [1, 100000]");
-  checkRange("sigma", p.rbf.sigma, 0.0, 1e6, true);
-  if (p.iterations < 1 || p.iterations > 100000)
-    throw InvalidParameter("iterations = " + std::to_string(p.iterations) +
-                           " is outside [1, 1000]");
+  checkRange("t", p.diffusion.t, kMinDiffusionTime, kMaxDiffusionTime, false);
+  checkRange("steps", p.diffusion.steps, 1, kMaxDiffusionSteps, false);
+  checkRange("sigma", p.rbf.sigma, kMinRbfSigma, kMaxRbfSigma, false);
+  checkRange("iterations", p.iterations, 1, kMaxIterations, false);
   checkRange("tolerance", p.tolerance, 0.0, 1.0, false);
 }
 
@@ -251,18 +318,78 @@ UpdateReport EditSession::update() {
 
 void EditSession::compute(const EditState& want, UpdateReport& report) {
   Systems& S = *systems_;
-  const int n = disc_->numVertices();
-  const int d = disc_->dim();
   const EditParams& p = want.params;
   const bool hasHandles = !want.handles.empty();
-  const Eigen::MatrixXd rest3 = mesh_.positions();
-
-  // Weights.
   Timer timer;
   Eigen::VectorXd weights = weights_;
-  bool weightsChanged = false;
+  const bool weightsChanged = computeWeights(want, weights, report);
+  report.weightsSeconds = timer.seconds();
+
+  timer.reset();
+  Eigen::MatrixXd positions = positions_;
+  bool deformed = false;
   if (!hasHandles) {
-    weightsChanged = weights.size() != n || weights.cwiseAbs().maxCoeff() != 0.0;
+    positions = mesh_.positions();
+    deformed = true;
+    S.deform.reset();
+    S.reference.reset();
+    report.converged = true;
+  } else {
+    DeformationResult result;
+    if (syncDeformation(*disc_, backend_, S.deform, want, true, weights, S.weightsSerial, refine_,
+                        result, report.deformation)) {
+      positions = mesh_.positions();
+      positions.leftCols(disc_->dim()) = result.positions;
+      report.iterations = result.iterations;
+      report.criterion = result.criterion;
+      report.initialGuess = result.initialGuess;
+      deformed = true;
+    } else {
+      report.iterations = last_.iterations;
+      report.criterion = last_.criterion;
+      report.initialGuess = last_.initialGuess;
+    }
+    report.converged = S.deform.converged;
+    report.deformationWork = workOf(report.deformation);
+  }
+  report.deformationSeconds = timer.seconds();
+
+  // The same edit without regularization, for Dist.
+  timer.reset();
+  const bool wantReference = hasHandles && p.reference && p.regularization != Regularization::None;
+  bool referenceChanged = false;
+  if (wantReference) {
+    DeformationResult result;
+    referenceChanged = syncDeformation(*disc_, backend_, S.reference, want, false, weights,
+                                       S.weightsSerial, refine_, result, report.reference);
+    report.converged = report.converged && S.reference.converged;
+    report.referenceWork = workOf(report.reference);
+  } else {
+    S.reference.synced.reset();  // targets may move meanwhile: resynchronize when needed again
+    S.reference.converged = true;
+  }
+  report.referenceSeconds = timer.seconds();
+
+  // Per-element maps and the Table-1 metrics.
+  timer.reset();
+  const bool paramsChanged = !computed_ || computed_->params.energy != p.energy ||
+                             computed_->params.regularization != p.regularization ||
+                             computed_->params.beta != p.beta ||
+                             computed_->params.reference != p.reference;
+  if (deformed || weightsChanged || referenceChanged || paramsChanged) computeMaps(want, positions);
+  report.metricsSeconds = timer.seconds();
+  positions_ = positions;
+  weights_ = weights;
+}
+
+bool EditSession::computeWeights(const EditState& want, Eigen::VectorXd& weights,
+                                 UpdateReport& report) {
+  Systems& S = *systems_;
+  const EditParams& p = want.params;
+  bool changed = false;
+  if (want.handles.empty()) {
+    const int n = disc_->numVertices();
+    changed = weights.size() != n || weights.cwiseAbs().maxCoeff() != 0.0;
     weights = Eigen::VectorXd::Zero(n);
     S.diffusionSynced.reset();
     S.rbfSynced.reset();
@@ -270,37 +397,9 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
     S.rbfSynced.reset();
     if (!S.diffusion) S.diffusion = std::make_unique<DiffusionWeights>(*disc_, backend_);
     const SolverStats before = S.diffusion->stats();
-    const std::optional<EditState>& had = S.diffusionSynced;
-    bool dirty = false;
-    if (!had || vertexSets(*had) != vertexSets(want)) {
-      std::vector<double> r, m;
-      for (const EditHandle& h : want.handles) {
-        r.push_back(h.range);
-        m.push_back(h.magnitude);
-      }
-      S.diffusion->setParams(p.diffusion);
-      S.diffusion->setHandles(vertexSets(want), r, m);
-      dirty = true;
-    } else {
-      for (size_t j = 0; j < want.handles.size(); ++j) {
-        const int jj = static_cast<int>(j);
-        if (want.handles[j].range != had->handles[j].range) {
-          S.diffusion->setRange(jj, want.handles[j].range);
-          dirty = true;
-        }
-        if (want.handles[j].magnitude != had->handles[j].magnitude) {
-          S.diffusion->setMagnitude(jj, want.handles[j].magnitude);
-          dirty = true;
-        }
-      }
-      if (!sameDiffusion(had->params.diffusion, p.diffusion)) {
-        S.diffusion->setParams(p.diffusion);
-        dirty = true;
-      }
-    }
-    if (dirty) {
+    if (syncDiffusion(want)) {
       weights = S.diffusion->solve();
-      weightsChanged = true;
+      changed = true;
     }
     S.diffusionSynced = want;
     report.weights = S.diffusion->stats() - before;
@@ -312,176 +411,66 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
         !sameRbf(had->params.rbf, p.rbf)) {
       const double sigma = rbfSigmaFromDiagonal(mesh_, p.rbf.sigma);
       weights = rbfWeights(mesh_, toHandleSet(want), sigma, p.rbf.distance, p.rbf.clamp);
-      weightsChanged = true;
+      changed = true;
       report.weightsWork = "evaluate";
     }
     S.rbfSynced = want;
   }
-  if (weightsChanged) ++S.weightsSerial;
-  report.weightsSeconds = timer.seconds();
+  if (changed) ++S.weightsSerial;
+  return changed;
+}
 
-  // Deformation.
-  timer.reset();
-  Eigen::MatrixXd positions = positions_;
-  bool deformed = false;
-  if (!hasHandles) {
-    positions = rest3;
-    deformed = true;
-    S.deform.reset();
-    S.deformSynced.reset();
-    S.reference.reset();
-    S.referenceSynced.reset();
-    S.deformConverged = S.referenceConverged = true;
-    report.converged = true;
-  } else {
-    const std::optional<EditState>& had = S.deformSynced;
-    const bool fresh = !S.deform || !had || had->params.energy != p.energy ||
-                       had->params.localStep != p.localStep ||
-                       had->params.acceleration != p.acceleration;
-    if (fresh) {
-      DeformationOptions options;
-      options.energy = p.energy;
-      options.regularization = p.regularization;
-      options.beta = p.beta;
-      options.localStep = p.localStep;
-      options.acceleration = p.acceleration;
-      if (p.regularization == Regularization::Nonuniform) options.weights = weights;
-      options.backend = backend_;
-      S.deform = std::make_unique<DeformationSession>(*disc_, options);
-      S.deformWeightsSerial = S.weightsSerial;
+bool EditSession::syncDiffusion(const EditState& want) {
+  Systems& S = *systems_;
+  DiffusionWeights& diffusion = *S.diffusion;
+  const std::optional<EditState>& had = S.diffusionSynced;
+  if (!had || vertexSets(*had) != vertexSets(want)) {
+    std::vector<double> r, m;
+    for (const EditHandle& h : want.handles) {
+      r.push_back(h.range);
+      m.push_back(h.magnitude);
     }
-    const SolverStats before = fresh ? SolverStats{} : S.deform->stats();
-    bool dirty = fresh;
-    if (fresh || allVertices(*had) != allVertices(want)) {
-      S.deform->setHandles(allVertices(want));
-      dirty = true;
-    }
-    // A drag: only targets moved since the last solve, which continues from its result.
-    bool drag = !dirty && p.continueDrags;
-    if (dirty || !sameTargets(*had, want)) {
-      S.deform->setTargets(stackedTargets(want));
-      dirty = true;
-    }
-    if (!fresh) {
-      const EditParams& q = had->params;
-      const bool regChanged = q.regularization != p.regularization ||
-                              (p.regularization == Regularization::Uniform && q.beta != p.beta) ||
-                              (p.regularization == Regularization::Nonuniform &&
-                               S.deformWeightsSerial != S.weightsSerial);
-      if (regChanged) {
-        S.deform->setRegularization(
-            p.regularization, p.beta,
-            p.regularization == Regularization::Nonuniform ? weights : Eigen::VectorXd());
-        S.deformWeightsSerial = S.weightsSerial;
-        dirty = true;
-      }
-      if (regChanged || q.iterations != p.iterations || q.tolerance != p.tolerance) drag = false;
-      if (q.iterations != p.iterations || q.tolerance != p.tolerance) dirty = true;
-    }
-    // Refining: the last run stopped at its iteration budget; continue from its shape.
-    const bool refining = refine_ && !dirty && !S.deformConverged;
-    if (dirty || refining) {
-      const DeformationResult result =
-          refining ? S.deform->resume(p.iterations, p.tolerance)
-          : drag   ? S.deform->solveFrom(positions_.leftCols(d), p.iterations, p.tolerance)
-                   : S.deform->solve(p.iterations, p.tolerance);
-      positions = rest3;
-      positions.leftCols(d) = result.positions;
-      report.iterations = result.iterations;
-      S.deformConverged = result.converged;
-      report.criterion = result.criterion;
-      report.initialGuess = result.initialGuess;
-      deformed = true;
-    } else {
-      report.iterations = last_.iterations;
-      report.criterion = last_.criterion;
-      report.initialGuess = last_.initialGuess;
-    }
-    report.converged = S.deformConverged;
-    S.deformSynced = want;
-    report.deformation = S.deform->stats() - before;
-    report.deformationWork = workOf(report.deformation);
+    diffusion.setParams(want.params.diffusion);
+    diffusion.setHandles(vertexSets(want), r, m);
+    return true;
   }
-  report.deformationSeconds = timer.seconds();
+  bool dirty = false;
+  for (size_t j = 0; j < want.handles.size(); ++j) {
+    const int jj = static_cast<int>(j);
+    if (want.handles[j].range != had->handles[j].range) {
+      diffusion.setRange(jj, want.handles[j].range);
+      dirty = true;
+    }
+    if (want.handles[j].magnitude != had->handles[j].magnitude) {
+      diffusion.setMagnitude(jj, want.handles[j].magnitude);
+      dirty = true;
+    }
+  }
+  if (!sameDiffusion(had->params.diffusion, want.params.diffusion)) {
+    diffusion.setParams(want.params.diffusion);
+    dirty = true;
+  }
+  return dirty;
+}
 
-  // The same edit without regularization, for Dist.
-  timer.reset();
+void EditSession::computeMaps(const EditState& want, const Eigen::MatrixXd& positions) {
+  const Systems& S = *systems_;
+  const EditParams& p = want.params;
+  const Eigen::MatrixXd X = positions.leftCols(disc_->dim());
+  const bool hasHandles = !want.handles.empty();
+  const RegularizationWeights regWeights =
+      hasHandles ? S.deform.session->regularizationWeights()
+                 : makeRegularizationWeights(*disc_, p.regularization, p.beta,
+                                             Eigen::VectorXd::Zero(disc_->numVertices()));
   const bool wantReference = hasHandles && p.reference && p.regularization != Regularization::None;
-  bool referenceChanged = false;
-  if (wantReference) {
-    const std::optional<EditState>& had = S.referenceSynced;
-    const bool fresh = !S.reference || !had || had->params.energy != p.energy ||
-                       had->params.localStep != p.localStep ||
-                       had->params.acceleration != p.acceleration;
-    if (fresh) {
-      DeformationOptions options;
-      options.energy = p.energy;
-      options.regularization = Regularization::None;
-      options.localStep = p.localStep;
-      options.acceleration = p.acceleration;
-      options.reserveRegularization = false;  // never regularized: the smaller pattern
-      options.backend = backend_;
-      S.reference = std::make_unique<DeformationSession>(*disc_, options);
-    }
-    const SolverStats before = fresh ? SolverStats{} : S.reference->stats();
-    bool dirty = fresh;
-    if (fresh || allVertices(*had) != allVertices(want)) {
-      S.reference->setHandles(allVertices(want));
-      dirty = true;
-    }
-    const bool drag = !dirty && p.continueDrags && !sameTargets(*had, want) &&
-                      had->params.iterations == p.iterations &&
-                      had->params.tolerance == p.tolerance;
-    if (dirty || !sameTargets(*had, want)) {
-      S.reference->setTargets(stackedTargets(want));
-      dirty = true;
-    }
-    if (!fresh && (had->params.iterations != p.iterations || had->params.tolerance != p.tolerance))
-      dirty = true;
-    const bool refining = refine_ && !dirty && !S.referenceConverged;
-    if (dirty || refining) {
-      const DeformationResult result =
-          refining ? S.reference->resume(p.iterations, p.tolerance)
-          : drag   ? S.reference->solveFrom(S.referencePositions, p.iterations, p.tolerance)
-                   : S.reference->solve(p.iterations, p.tolerance);
-      S.referencePositions = result.positions;
-      S.referenceConverged = result.converged;
-      referenceChanged = true;
-    }
-    report.converged = report.converged && S.referenceConverged;
-    S.referenceSynced = want;
-    report.reference = S.reference->stats() - before;
-    report.referenceWork = workOf(report.reference);
-  } else {
-    S.referenceSynced.reset();  // targets may move meanwhile: resynchronize when needed again
-    S.referenceConverged = true;
-  }
-  report.referenceSeconds = timer.seconds();
-
-  // Per-element maps and the Table-1 metrics.
-  timer.reset();
-  const bool paramsChanged = !computed_ || computed_->params.energy != p.energy ||
-                             computed_->params.regularization != p.regularization ||
-                             computed_->params.beta != p.beta ||
-                             computed_->params.reference != p.reference;
-  if (deformed || weightsChanged || referenceChanged || paramsChanged) {
-    const Eigen::MatrixXd X = positions.leftCols(d);
-    const RegularizationWeights regWeights =
-        hasHandles
-            ? S.deform->regularizationWeights()
-            : makeRegularizationWeights(*disc_, p.regularization, p.beta, Eigen::VectorXd::Zero(n));
-    const Eigen::MatrixXd* reference = nullptr;
-    if (p.reference) reference = wantReference ? &S.referencePositions : &X;
-    DeformationMetrics metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference);
-    Eigen::VectorXd distortion = elementDistortion(*disc_, p.energy, X);
-    Eigen::VectorXd smoothness = elementSmoothness(*disc_, facetSmoothness(*disc_, p.energy, X));
-    metrics_ = metrics;
-    distortion_ = std::move(distortion);
-    smoothness_ = std::move(smoothness);
-  }
-  report.metricsSeconds = timer.seconds();
-  positions_ = positions;
-  weights_ = weights;
+  const Eigen::MatrixXd* reference = nullptr;
+  if (p.reference) reference = wantReference ? &S.reference.positions : &X;
+  DeformationMetrics metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference);
+  Eigen::VectorXd distortion = elementDistortion(*disc_, p.energy, X);
+  Eigen::VectorXd smoothness = elementSmoothness(*disc_, facetSmoothness(*disc_, p.energy, X));
+  metrics_ = metrics;
+  distortion_ = std::move(distortion);
+  smoothness_ = std::move(smoothness);
 }
 
 HandleSet EditSession::handleSet() const { return toHandleSet(state_); }

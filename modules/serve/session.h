@@ -30,9 +30,15 @@ enum class WeightScheme {
   Diffusion,  ///< heat diffusion from the handles (weights/diffusion.h)
   Rbf,        ///< Gaussian RBF per handle (weights/rbf.h), the paper's baseline
 };
-const char* toString(WeightScheme scheme);
-/// "diffusion" or "rbf". \throw InvalidParameter for any other name, listing the valid ones.
-WeightScheme parseWeightScheme(const std::string& name);
+template <>
+struct EnumTable<WeightScheme> {
+  static constexpr const char* parameter = "weights";
+  static constexpr const char* noun = "weight scheme";
+  static constexpr EnumName<WeightScheme> names[] = {
+      {WeightScheme::Diffusion, "diffusion"},
+      {WeightScheme::Rbf, "rbf"},
+  };
+};
 
 struct RbfSettings {
   RbfDistance distance = RbfDistance::Geodesic;
@@ -175,7 +181,16 @@ class EditSession {
 
  private:
   struct Systems;
+  // update()'s work: the weights, the deformation and its reference, the maps and metrics.
   void compute(const EditState& want, UpdateReport& report);
+  // The weights for `want` into `weights` (left as they are when nothing they depend on
+  // changed); returns whether they changed.
+  bool computeWeights(const EditState& want, Eigen::VectorXd& weights, UpdateReport& report);
+  // Brings the diffusion's handles, ranges, magnitudes and parameters in line with `want`;
+  // returns whether the weights must be solved again.
+  bool syncDiffusion(const EditState& want);
+  // distortion_, smoothness_ and metrics_ for the shape `positions` (n x 3).
+  void computeMaps(const EditState& want, const Eigen::MatrixXd& positions);
 
   Mesh mesh_;
   std::unique_ptr<Discretization> disc_;
