@@ -4,7 +4,7 @@
 // lengths they shrink; random edge flips change them little.
 #include "discretization/discretization.h"
 #include "handles/handles.h"
-#include "mesh/edit.h"
+#include "mesh/remesh.h"
 #include "mesh/shapes.h"
 #include "weights/diffusion.h"
 

@@ -113,18 +113,7 @@ void copyDiffregDoubles(It begin, It end, Setter set) {
 inline void stackHandles(const HandleSet& handles, std::vector<int>& vertices,
                          Eigen::MatrixXd& targets) {
   vertices = handles.allVertices();
-  targets.resize(static_cast<Eigen::Index>(vertices.size()), 3);
-  Eigen::Index row = 0;
-  for (const Handle& h : handles.handles) {
-    if (h.targets.rows() != static_cast<Eigen::Index>(h.vertices.size()) ||
-        h.targets.cols() != 3)
-      throw InvalidParameter("handle '" + h.name + "': " + std::to_string(h.vertices.size()) +
-                             " vertices need as many target rows of 3 coordinates, got " +
-                             std::to_string(h.targets.rows()) + " x " +
-                             std::to_string(h.targets.cols()));
-    targets.middleRows(row, h.targets.rows()) = h.targets;
-    row += h.targets.rows();
-  }
+  targets = handles.allTargets();
 }
 
 /// The vertex weights for non-uniform regularization: the options' own, else the property.

@@ -482,6 +482,25 @@ std::vector<int> HandleSet::allVertices() const {
   return out;
 }
 
+Eigen::MatrixXd HandleSet::allTargets() const {
+  Eigen::Index rows = 0;
+  for (const Handle& h : handles) {
+    if (h.targets.rows() != static_cast<Eigen::Index>(h.vertices.size()) || h.targets.cols() != 3)
+      throw InvalidParameter("handle '" + h.name + "': " + std::to_string(h.vertices.size()) +
+                             " vertices need as many target rows of 3 coordinates, got " +
+                             std::to_string(h.targets.rows()) + " x " +
+                             std::to_string(h.targets.cols()));
+    rows += h.targets.rows();
+  }
+  Eigen::MatrixXd out(rows, 3);
+  Eigen::Index row = 0;
+  for (const Handle& h : handles) {
+    out.middleRows(row, h.targets.rows()) = h.targets;
+    row += h.targets.rows();
+  }
+  return out;
+}
+
 std::vector<int> HandleSet::handleOfVertex(int numVertices) const {
   std::vector<int> out(std::max(0, numVertices), -1);
   for (size_t i = 0; i < handles.size(); ++i) {

@@ -24,6 +24,9 @@ struct HandleSet {
   bool empty() const { return handles.empty(); }
   /// All constrained vertex ids, handle by handle.
   std::vector<int> allVertices() const;
+  /// Their targets in the same order, one row of 3 coordinates per vertex.
+  /// \throw InvalidParameter naming a handle whose targets are not |vertices| x 3.
+  Eigen::MatrixXd allTargets() const;
   /// Per-vertex handle index, -1 for free vertices (size n).
   std::vector<int> handleOfVertex(int numVertices) const;
 };

@@ -31,26 +31,8 @@ std::vector<std::vector<int>> vertexSets(const EditState& s) {
   return sets;
 }
 
-std::vector<int> allVertices(const EditState& s) {
-  std::vector<int> all;
-  for (const EditHandle& h : s.handles) all.insert(all.end(), h.vertices.begin(), h.vertices.end());
-  return all;
-}
-
-Eigen::MatrixXd stackedTargets(const EditState& s) {
-  Eigen::Index rows = 0;
-  for (const EditHandle& h : s.handles) rows += h.targets.rows();
-  Eigen::MatrixXd t(rows, 3);
-  Eigen::Index row = 0;
-  for (const EditHandle& h : s.handles) {
-    t.middleRows(row, h.targets.rows()) = h.targets;
-    row += h.targets.rows();
-  }
-  return t;
-}
-
 bool sameTargets(const EditState& a, const EditState& b) {
-  if (allVertices(a) != allVertices(b)) return false;
+  if (vertexSets(a) != vertexSets(b)) return false;
   for (size_t j = 0; j < a.handles.size(); ++j)
     if (a.handles[j].targets != b.handles[j].targets) return false;
   return true;
@@ -128,14 +110,14 @@ bool syncDeformation(const Discretization& disc, SolverBackend backend, TrackedD
   DeformationSession& session = *tracked.session;
   const SolverStats before = fresh ? SolverStats{} : session.stats();
   bool dirty = fresh;
-  if (fresh || allVertices(*had) != allVertices(want)) {
-    session.setHandles(allVertices(want));
+  if (fresh || toHandleSet(*had).allVertices() != toHandleSet(want).allVertices()) {
+    session.setHandles(toHandleSet(want).allVertices());
     dirty = true;
   }
   // A drag: only targets moved since the last solve, which continues from its result.
   bool drag = !dirty && p.continueDrags;
   if (dirty || !sameTargets(*had, want)) {
-    session.setTargets(stackedTargets(want));
+    session.setTargets(toHandleSet(want).allTargets());
     dirty = true;
   }
   if (!fresh) {

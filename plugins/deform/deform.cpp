@@ -2,7 +2,7 @@
 
 #include "core/timer.h"
 
-#include "deform/edit.h"
+#include "deform/element_maps.h"
 #include "deform/measure.h"
 #include "deformation/deformer.h"
 #include "deformation/metrics.h"
@@ -90,9 +90,8 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
 
   timer.reset();
   DeformationSession session(disc, options);
-  const Edit edit = editOf(doc.handles);
-  session.setHandles(edit.vertices);
-  session.setTargets(edit.targets);
+  session.setHandles(doc.handles.allVertices());
+  session.setTargets(doc.handles.allTargets());
   const double setup = timer.seconds();
   const DeformationResult result = session.solve();
 

@@ -1,7 +1,7 @@
 #include "deform/measure.h"
 
 #include "core/error.h"
-#include "deform/edit.h"
+#include "deform/element_maps.h"
 #include "deformation/deformer.h"
 #include "deformation/metrics.h"
 #include "mesh/io.h"
@@ -101,9 +101,8 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
       options.maxIterations = std::stoi(doc.state.at("deform.iterations"));
       options.relTolerance = std::stod(doc.state.at("deform.tolerance"));
       DeformationSession session(restDisc, options);
-      const Edit edit = editOf(doc.handles);
-      session.setHandles(edit.vertices);
-      session.setTargets(edit.targets);
+      session.setHandles(doc.handles.allVertices());
+      session.setTargets(doc.handles.allTargets());
       reference = session.solve().positions;
       out.stats = session.stats();
     }

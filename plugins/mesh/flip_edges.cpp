@@ -2,7 +2,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
-#include "mesh/edit.h"
+#include "mesh/remesh.h"
 #include "plugins.h"
 
 #include <climits>

@@ -7,7 +7,7 @@
 namespace diffreg {
 
 /// Parameters: fraction (of the interior edges, [0, 1]), seed. Flips edges of the rest shape
-/// (mesh/edit.h flipEdges: no fold, no degenerate triangle, the surface kept); vertices, their
+/// (mesh/remesh.h flipEdges: no fold, no degenerate triangle, the surface kept); vertices, their
 /// ids, the rest positions, the current positions, the handles and the vertex properties stay;
 /// element properties (distortion, smoothness) are removed, since their elements are gone.
 /// Report data: interior_edges, requested, flipped.

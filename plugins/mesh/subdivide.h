@@ -7,7 +7,7 @@
 namespace diffreg {
 
 /// Parameters: iterations, scheme (midpoint|loop), handles (grow|keep). The old vertices keep
-/// their ids 0..n-1 (mesh/edit.h subdivide), so handles stay valid; the rest positions are
+/// their ids 0..n-1 (mesh/remesh.h subdivide), so handles stay valid; the rest positions are
 /// subdivided alike (and the current positions, when an earlier step moved the mesh). Each
 /// handle vertex keeps its displacement (target - rest); with handles=grow a new vertex that
 /// splits an edge between two vertices of one handle joins that handle, its displacement the

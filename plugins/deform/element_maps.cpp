@@ -1,20 +1,8 @@
-#include "deform/edit.h"
+#include "deform/element_maps.h"
 
 #include "deformation/metrics.h"
 
 namespace diffreg {
-
-Edit editOf(const HandleSet& handles) {
-  Edit edit;
-  edit.vertices = handles.allVertices();
-  edit.targets.resize(static_cast<Eigen::Index>(edit.vertices.size()), 3);
-  Eigen::Index row = 0;
-  for (const Handle& h : handles.handles) {
-    edit.targets.middleRows(row, h.targets.rows()) = h.targets;
-    row += h.targets.rows();
-  }
-  return edit;
-}
 
 Eigen::MatrixXd toMeshPositions(const Document& doc, const Eigen::MatrixXd& positions) {
   Eigen::MatrixXd out = doc.rest;

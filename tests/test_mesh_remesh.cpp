@@ -1,6 +1,6 @@
 // Mesh edits for the paper's experiments: random edge flips (Fig. 8) and subdivision (Fig. 9).
 #include "core/error.h"
-#include "mesh/edit.h"
+#include "mesh/remesh.h"
 #include "mesh/shapes.h"
 
 #include <catch2/catch.hpp>

@@ -3,7 +3,7 @@
 // (triangulation, Fig. 8; resolution, Fig. 9 and docs/method.md, "Diffused weights" "Units of t"),
 // and their errors.
 #include "core/error.h"
-#include "mesh/edit.h"
+#include "mesh/remesh.h"
 #include "mesh/shapes.h"
 #include "pipeline/pipeline.h"
 #include "plugins.h"

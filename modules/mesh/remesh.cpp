@@ -1,4 +1,4 @@
-#include "mesh/edit.h"
+#include "mesh/remesh.h"
 
 #include <OpenMesh/Tools/Subdivider/Uniform/LoopT.hh>
 

@@ -1,5 +1,5 @@
-// What the deform and measure filters share: the edit a document describes (its handles'
-// vertices and targets), solving it, and the per-element maps written back to the mesh.
+// What the deform and measure filters share: the document's positions in the discretization's
+// layout and back, and the per-element maps written back to the mesh.
 #pragma once
 
 #include "deformation/energy.h"
@@ -11,13 +11,6 @@
 #include <vector>
 
 namespace diffreg {
-
-/// The handle vertices, handle by handle, and their targets (one row each, 3 columns).
-struct Edit {
-  std::vector<int> vertices;
-  Eigen::MatrixXd targets;
-};
-Edit editOf(const HandleSet& handles);
 
 /// The mesh positions (n x 3) for deformed positions n x d: planar meshes keep their rest z.
 Eigen::MatrixXd toMeshPositions(const Document& doc, const Eigen::MatrixXd& positions);
