@@ -1,6 +1,7 @@
 // A Document is what a pipeline works on: a mesh, its handles and its rest positions.
 #pragma once
 
+#include "deformation/deformer.h"
 #include "discretization/discretization.h"
 #include "handles/handles.h"
 #include "mesh/mesh.h"
@@ -9,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace diffreg {
@@ -18,9 +20,10 @@ struct Document {
   HandleSet handles;
   Eigen::MatrixXd rest;  ///< positions when loaded, n x 3
   std::string path;      ///< where the mesh came from ("" when built in code)
-  /// What earlier filters of a pipeline leave for later ones, as "filter.key" -> text (e.g. the
-  /// deform filter's energy, read by measure).
-  std::map<std::string, std::string> state;
+  /// The options of the last deform filter run on this document (without its weights and
+  /// progress callback): measure takes the energy and regularization from them and solves the
+  /// same edit without regularization for Dist. Empty until a deform filter has run.
+  std::optional<DeformationOptions> deformation;
 
   /// Where a filter writes a file it is asked to write (e.g. render's PNG): maps the requested
   /// path to the one to write now. Unset: the path itself. The diffreg tool stages such files

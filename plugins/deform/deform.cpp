@@ -99,7 +99,9 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
   doc.mesh.setPositions(toMeshPositions(doc, result.positions));
   writeElementMaps(doc, disc, options.energy, result.positions);
   const double maps = timer.seconds();
-  for (const auto& [key, value] : params.text()) doc.state["deform." + key] = value;
+  doc.deformation = options;
+  doc.deformation->weights.resize(0);  // the mesh keeps them as diffreg:weight
+  doc.deformation->progress = nullptr;
 
   FilterResult out;
   out.stats = session.stats();

@@ -27,11 +27,6 @@ Mesh readMatching(const Document& doc, const std::string& path, const std::strin
   return other;
 }
 
-std::string stateOr(const Document& doc, const std::string& key, const std::string& fallback) {
-  const auto it = doc.state.find(key);
-  return it == doc.state.end() ? fallback : it->second;
-}
-
 }  // namespace
 
 std::string MeasureFilter::description() const {
@@ -68,14 +63,14 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
   std::optional<Discretization> restFromFile;
   if (!restPath.empty()) restFromFile.emplace(readMatching(doc, restPath, "rest", true));
   const Discretization& disc = restFromFile ? *restFromFile : doc.restDiscretization();
-  std::string energyName = params.getString("energy");
-  if (energyName == "auto") energyName = stateOr(doc, "deform.energy", "arap");
-  const Energy energy = parseEnum<Energy>(energyName);
+  // The energy and the regularization of the deformation being measured (none before any).
+  const DeformationOptions deformed = doc.deformation.value_or(DeformationOptions{});
+  const std::string energyName = params.getString("energy");
+  const Energy energy = energyName == "auto" ? deformed.energy : parseEnum<Energy>(energyName);
   const Eigen::MatrixXd positions = currentPositions(doc, disc);
 
-  // The energy is measured with the regularization the deformation used.
-  const Regularization mode = parseEnum<Regularization>(stateOr(doc, "deform.regularization", "none"));
-  const double beta = std::stod(stateOr(doc, "deform.beta", "0"));
+  const Regularization mode = deformed.regularization;
+  const double beta = deformed.beta;
   Eigen::VectorXd vertexWeights;
   if (mode == Regularization::Nonuniform) vertexWeights = doc.mesh.vertexScalar(prop::weight);
   const RegularizationWeights weights = makeRegularizationWeights(disc, mode, beta, vertexWeights);
@@ -89,17 +84,13 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
                     .positions()
                     .leftCols(disc.dim());
     referenceText = referencePath;
-  } else if (doc.state.count("deform.energy")) {
+  } else if (doc.deformation) {
     if (mode == Regularization::None) {
       reference = positions;  // the deformation is its own unregularized solve
     } else {
       const Discretization& restDisc = doc.restDiscretization();
-      DeformationOptions options;
-      options.energy = parseEnum<Energy>(doc.state.at("deform.energy"));
-      options.localStep = parseEnum<LocalStep>(stateOr(doc, "deform.local_step", "exact"));
-      options.acceleration = parseEnum<Acceleration>(stateOr(doc, "deform.acceleration", "lbfgs"));
-      options.maxIterations = std::stoi(doc.state.at("deform.iterations"));
-      options.relTolerance = std::stod(doc.state.at("deform.tolerance"));
+      DeformationOptions options = deformed;
+      options.regularization = Regularization::None;
       DeformationSession session(restDisc, options);
       session.setHandles(doc.handles.allVertices());
       session.setTargets(doc.handles.allTargets());
