@@ -328,6 +328,204 @@ void drawColorBar(Image& image, const RenderLayout& layout, const Field& field,
   }
 }
 
+// \throw InvalidParameter for a handle vertex the mesh does not have.
+void checkHandleVertices(const Mesh& mesh, const RenderOptions& options) {
+  const int n = mesh.numVertices();
+  for (int v : options.handles) {
+    if (v < 0 || v >= n) {
+      throw InvalidParameter("render: handle vertex " + std::to_string(v) + " out of range 0.." +
+                             std::to_string(n - 1));
+    }
+  }
+}
+
+// Supersampled frame and depth buffers for the viewport.
+struct Raster {
+  int ss = 1;  // samples per final pixel along each axis
+  int width = 0, height = 0;
+  Image frame;
+  std::vector<float> depth;
+};
+
+// Fewer samples per pixel when the buffers would exceed 2^26 samples.
+Raster makeRaster(const PixelRect& viewport, const RenderOptions& options) {
+  Raster r;
+  r.ss = options.supersample;
+  while (r.ss > 1 && static_cast<long long>(viewport.w) * viewport.h * r.ss * r.ss > (1LL << 26))
+    --r.ss;
+  r.width = viewport.w * r.ss;
+  r.height = viewport.h * r.ss;
+  r.frame = Image(r.width, r.height, options.background);
+  r.depth.assign(static_cast<std::size_t>(r.width) * r.height,
+                 -std::numeric_limits<float>::infinity());
+  return r;
+}
+
+// What every triangle of one picture shares: the mesh projected into the raster, the colours,
+// the lighting and the wireframe.
+struct Scene {
+  const RenderOptions& options;
+  const Field& field;
+  DrawList list;
+  std::vector<Eigen::Vector3d> screen;  // per vertex: raster coordinates and depth
+  bool shaded = false;
+  std::vector<std::array<Eigen::Vector3d, 3>> normals;  // per triangle corner, when shaded
+  Eigen::Vector3d light;
+  double wireAlpha = 0.0;  // 0: no wireframe
+};
+
+// Wireframe: half a final pixel on each side of an edge, faded out on dense meshes.
+double wireframeAlpha(const Scene& scene, int ss) {
+  const int t = static_cast<int>(scene.list.tris.size());
+  if (!scene.options.wireframe || t == 0) return 0.0;
+  double sum = 0.0;
+  for (const auto& f : scene.list.tris)
+    for (int j = 0; j < 3; ++j)
+      sum += (scene.screen[f[j]] - scene.screen[f[(j + 1) % 3]]).head<2>().norm();
+  const double meanEdge = sum / (3.0 * t) / ss;  // final pixels
+  return 0.6 * std::clamp((meanEdge - 4.0) / 8.0, 0.0, 1.0);
+}
+
+// Projects the mesh into the raster once, with what lighting and the wireframe need.
+Scene makeScene(const Mesh& mesh, const RenderOptions& options, const Field& field,
+                const Raster& raster) {
+  const Projection proj(mesh, options, {0, 0, raster.width, raster.height});
+  const Eigen::MatrixXd p = mesh.positions();
+  Scene scene{options, field, drawList(mesh), {}, proj.shaded(), {}, {}, 0.0};
+  scene.screen.resize(mesh.numVertices());
+  for (int i = 0; i < mesh.numVertices(); ++i) scene.screen[i] = proj.project(p.row(i).transpose());
+  if (scene.shaded) scene.normals = cornerNormals(p, scene.list, viewRotation(options, true));
+  scene.light = Eigen::Vector3d(0.2, 0.5, 1.0).normalized();
+  scene.wireAlpha = wireframeAlpha(scene, raster.ss);
+  return scene;
+}
+
+// Draws triangle k into the raster where it is nearest the viewer: its colour (interpolated
+// per pixel for vertex values), lit by its corner normals when shaded, with the wireframe.
+void drawTriangle(Raster& raster, const Scene& scene, int k) {
+  const RenderOptions& options = scene.options;
+  const Field& field = scene.field;
+  const auto& f = scene.list.tris[k];
+  const Eigen::Vector3d& a = scene.screen[f[0]];
+  const Eigen::Vector3d& b = scene.screen[f[1]];
+  const Eigen::Vector3d& c = scene.screen[f[2]];
+  if (!a.allFinite() || !b.allFinite() || !c.allFinite()) return;
+  const double area = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+  if (std::abs(area) < 1e-12) return;
+  const int W = raster.width, H = raster.height;
+  const int x0 = std::max(0, static_cast<int>(std::floor(std::min({a.x(), b.x(), c.x()}))));
+  const int x1 = std::min(W - 1, static_cast<int>(std::ceil(std::max({a.x(), b.x(), c.x()}))));
+  const int y0 = std::max(0, static_cast<int>(std::floor(std::min({a.y(), b.y(), c.y()}))));
+  const int y1 = std::min(H - 1, static_cast<int>(std::ceil(std::max({a.y(), b.y(), c.y()}))));
+  if (x0 > x1 || y0 > y1) return;
+
+  // Colour inputs.
+  const Eigen::Vector3d s =
+      field.present && field.perVertex
+          ? Eigen::Vector3d(field.s[f[0]], field.s[f[1]], field.s[f[2]])
+          : Eigen::Vector3d::Constant(field.present ? field.s[scene.list.element[k]] : 0.0);
+  const bool noData = !field.present || !s.allFinite();
+  const Rgb flat = noData ? options.noDataColor : colormap(options.colormap, s[0]);
+  std::array<Eigen::Vector3d, 3> nrm{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                                     Eigen::Vector3d::Zero()};
+  if (scene.shaded) {
+    nrm = scene.normals[k];
+    // Two-sided lighting: turn the normals of back-facing triangles towards the viewer.
+    // In pixel coordinates (y down) a counter-clockwise view-space triangle has area < 0.
+    if (area > 0)
+      for (auto& v : nrm) v = -v;
+  }
+  // Altitudes (pixels) for the distance of a point to each edge.
+  const double alt[3] = {std::abs(area) / (c - b).head<2>().norm(),
+                         std::abs(area) / (a - c).head<2>().norm(),
+                         std::abs(area) / (b - a).head<2>().norm()};
+  const double halfWidth = 0.5 * raster.ss;
+
+  for (int y = y0; y <= y1; ++y) {
+    const double py = y + 0.5;
+    for (int x = x0; x <= x1; ++x) {
+      const double px = x + 0.5;
+      double l0 = ((b.x() - px) * (c.y() - py) - (b.y() - py) * (c.x() - px)) / area;
+      double l1 = ((c.x() - px) * (a.y() - py) - (c.y() - py) * (a.x() - px)) / area;
+      double l2 = 1.0 - l0 - l1;
+      if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9) continue;
+      const float z = static_cast<float>(l0 * a.z() + l1 * b.z() + l2 * c.z());
+      float& depth = raster.depth[static_cast<std::size_t>(y) * W + x];
+      if (z <= depth) continue;
+      depth = z;
+      Rgb color = flat;
+      if (!noData && field.perVertex)
+        color = colormap(options.colormap, l0 * s[0] + l1 * s[1] + l2 * s[2]);
+      if (scene.shaded) {
+        const Eigen::Vector3d nn = (l0 * nrm[0] + l1 * nrm[1] + l2 * nrm[2]).normalized();
+        const double shade = kAmbient + kDiffuse * std::max(0.0, nn.dot(scene.light));
+        for (auto& ch : color) ch = static_cast<std::uint8_t>(std::lround(ch * shade));
+      }
+      if (scene.wireAlpha > 0.0) {
+        const double d = std::min({l0 * alt[0], l1 * alt[1], l2 * alt[2]});
+        color = mix(color, options.wireColor,
+                    scene.wireAlpha * std::clamp(halfWidth + 0.5 - d, 0.0, 1.0));
+      }
+      raster.frame.set(x, y, color);
+    }
+  }
+}
+
+// Box-filters the supersampled frame into the viewport of `image`.
+void downsample(const Raster& raster, Image& image, const PixelRect& vp) {
+  const int ss = raster.ss;
+  for (int y = 0; y < vp.h; ++y) {
+    for (int x = 0; x < vp.w; ++x) {
+      int sum[3] = {0, 0, 0};
+      for (int j = 0; j < ss; ++j) {
+        const std::uint8_t* row =
+            &raster.frame.rgb[((static_cast<std::size_t>(y) * ss + j) * raster.width + x * ss) * 3];
+        for (int i = 0; i < ss * 3; ++i) sum[i % 3] += row[i];
+      }
+      const int count = ss * ss;
+      image.set(vp.x + x, vp.y + y,
+                {static_cast<std::uint8_t>((sum[0] + count / 2) / count),
+                 static_cast<std::uint8_t>((sum[1] + count / 2) / count),
+                 static_cast<std::uint8_t>((sum[2] + count / 2) / count)});
+    }
+  }
+}
+
+// Handle markers at the handle vertices the depth buffer shows: white outlines first, then
+// the dots, so clusters read as one region.
+void drawHandles(Image& image, const Raster& raster, const Scene& scene, const PixelRect& vp) {
+  const RenderOptions& options = scene.options;
+  if (options.handles.empty()) return;
+  const int ss = raster.ss, W = raster.width, H = raster.height;
+  const double radius = options.handleRadius > 0
+                            ? options.handleRadius
+                            : std::max(2.5, std::min(options.width, options.height) / 150.0);
+  const double outline = std::max(1.0, radius / 3.0);
+  std::vector<Eigen::Vector2d> visible;
+  for (int v : options.handles) {
+    const Eigen::Vector3d q = scene.screen[v];
+    if (!q.allFinite()) continue;
+    const int sx = static_cast<int>(std::floor(q.x())), sy = static_cast<int>(std::floor(q.y()));
+    bool seen = false;
+    for (int j = sy - 1; j <= sy + 1 && !seen; ++j)
+      for (int i = sx - 1; i <= sx + 1 && !seen; ++i)
+        if (i >= 0 && j >= 0 && i < W && j < H)
+          seen = q.z() >= raster.depth[static_cast<std::size_t>(j) * W + i] - 2.0 * ss;
+    if (seen) visible.emplace_back(vp.x + q.x() / ss, vp.y + q.y() / ss);
+  }
+  for (const auto& c : visible) drawDisc(image, c.x(), c.y(), radius + outline, colors::white);
+  for (const auto& c : visible) drawDisc(image, c.x(), c.y(), radius, options.handleColor);
+}
+
+// The title centred over the mesh, kept inside the image.
+void drawTitle(Image& image, const RenderLayout& layout, const RenderOptions& options) {
+  const int ts = layout.textScale;
+  const PixelRect& vp = layout.viewport;
+  const int w = textWidth(options.title, ts);
+  const int x = std::max(0, std::min(vp.x + (vp.w - w) / 2, options.width - w));
+  drawText(image, x, layout.title.y, options.title, colors::darkGray, ts);
+}
+
 }  // namespace
 
 Rgb colormap(Colormap map, double s) {
@@ -417,156 +615,16 @@ Eigen::AlignedBox3d meshBounds(const Mesh& mesh) {
 Image renderMesh(const Mesh& mesh, const RenderOptions& options) {
   const Field field = resolveField(mesh, options);
   const RenderLayout layout = layoutFor(options, field);
-  const int n = mesh.numVertices();
-  for (int v : options.handles) {
-    if (v < 0 || v >= n) {
-      throw InvalidParameter("render: handle vertex " + std::to_string(v) + " out of range 0.." +
-                             std::to_string(n - 1));
-    }
-  }
+  checkHandleVertices(mesh, options);
   Image image(options.width, options.height, options.background);
-  const PixelRect& vp = layout.viewport;
-
-  // Supersampled frame and depth buffers for the viewport.
-  int ss = options.supersample;
-  while (ss > 1 && static_cast<long long>(vp.w) * vp.h * ss * ss > (1LL << 26)) --ss;
-  const int W = vp.w * ss, H = vp.h * ss;
-  Image frame(W, H, options.background);
-  std::vector<float> zbuf(static_cast<std::size_t>(W) * H, -std::numeric_limits<float>::infinity());
-  const Projection proj(mesh, options, {0, 0, W, H});
-
-  const Eigen::MatrixXd p = mesh.positions();
-  const DrawList list = drawList(mesh);
-  const int t = static_cast<int>(list.tris.size());
-  std::vector<Eigen::Vector3d> screen(n);
-  for (int i = 0; i < n; ++i) screen[i] = proj.project(p.row(i).transpose());
-  const bool shaded = proj.shaded();
-  std::vector<std::array<Eigen::Vector3d, 3>> normals;
-  if (shaded) normals = cornerNormals(p, list, viewRotation(options, true));
-  const Eigen::Vector3d light = Eigen::Vector3d(0.2, 0.5, 1.0).normalized();
-
-  // Wireframe: half a final pixel on each side of an edge, faded out on dense meshes.
-  double wireAlpha = 0.0;
-  if (options.wireframe && t > 0) {
-    double sum = 0.0;
-    for (const auto& f : list.tris)
-      for (int j = 0; j < 3; ++j) sum += (screen[f[j]] - screen[f[(j + 1) % 3]]).head<2>().norm();
-    const double meanEdge = sum / (3.0 * t) / ss;  // final pixels
-    wireAlpha = 0.6 * std::clamp((meanEdge - 4.0) / 8.0, 0.0, 1.0);
-  }
-  const double halfWidth = 0.5 * ss;
-
-  for (int k = 0; k < t; ++k) {
-    const auto& f = list.tris[k];
-    const Eigen::Vector3d& a = screen[f[0]];
-    const Eigen::Vector3d& b = screen[f[1]];
-    const Eigen::Vector3d& c = screen[f[2]];
-    if (!a.allFinite() || !b.allFinite() || !c.allFinite()) continue;
-    const double area = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
-    if (std::abs(area) < 1e-12) continue;
-    const int x0 = std::max(0, static_cast<int>(std::floor(std::min({a.x(), b.x(), c.x()}))));
-    const int x1 = std::min(W - 1, static_cast<int>(std::ceil(std::max({a.x(), b.x(), c.x()}))));
-    const int y0 = std::max(0, static_cast<int>(std::floor(std::min({a.y(), b.y(), c.y()}))));
-    const int y1 = std::min(H - 1, static_cast<int>(std::ceil(std::max({a.y(), b.y(), c.y()}))));
-    if (x0 > x1 || y0 > y1) continue;
-
-    // Colour inputs.
-    const Eigen::Vector3d s =
-        field.present && field.perVertex
-            ? Eigen::Vector3d(field.s[f[0]], field.s[f[1]], field.s[f[2]])
-            : Eigen::Vector3d::Constant(field.present ? field.s[list.element[k]] : 0.0);
-    const bool noData = !field.present || !s.allFinite();
-    const Rgb flat = noData ? options.noDataColor : colormap(options.colormap, s[0]);
-    std::array<Eigen::Vector3d, 3> nrm{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
-                                       Eigen::Vector3d::Zero()};
-    if (shaded) {
-      nrm = normals[k];
-      // Two-sided lighting: turn the normals of back-facing triangles towards the viewer.
-      // In pixel coordinates (y down) a counter-clockwise view-space triangle has area < 0.
-      if (area > 0)
-        for (auto& v : nrm) v = -v;
-    }
-    // Altitudes (pixels) for the distance of a point to each edge.
-    const double alt[3] = {std::abs(area) / (c - b).head<2>().norm(),
-                           std::abs(area) / (a - c).head<2>().norm(),
-                           std::abs(area) / (b - a).head<2>().norm()};
-
-    for (int y = y0; y <= y1; ++y) {
-      const double py = y + 0.5;
-      for (int x = x0; x <= x1; ++x) {
-        const double px = x + 0.5;
-        double l0 = ((b.x() - px) * (c.y() - py) - (b.y() - py) * (c.x() - px)) / area;
-        double l1 = ((c.x() - px) * (a.y() - py) - (c.y() - py) * (a.x() - px)) / area;
-        double l2 = 1.0 - l0 - l1;
-        if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9) continue;
-        const float z = static_cast<float>(l0 * a.z() + l1 * b.z() + l2 * c.z());
-        float& depth = zbuf[static_cast<std::size_t>(y) * W + x];
-        if (z <= depth) continue;
-        depth = z;
-        Rgb color = flat;
-        if (!noData && field.perVertex)
-          color = colormap(options.colormap, l0 * s[0] + l1 * s[1] + l2 * s[2]);
-        if (shaded) {
-          const Eigen::Vector3d nn = (l0 * nrm[0] + l1 * nrm[1] + l2 * nrm[2]).normalized();
-          const double shade = kAmbient + kDiffuse * std::max(0.0, nn.dot(light));
-          for (auto& ch : color) ch = static_cast<std::uint8_t>(std::lround(ch * shade));
-        }
-        if (wireAlpha > 0.0) {
-          const double d = std::min({l0 * alt[0], l1 * alt[1], l2 * alt[2]});
-          color =
-              mix(color, options.wireColor, wireAlpha * std::clamp(halfWidth + 0.5 - d, 0.0, 1.0));
-        }
-        frame.set(x, y, color);
-      }
-    }
-  }
-
-  // Box-filter the supersampled frame into the viewport.
-  for (int y = 0; y < vp.h; ++y) {
-    for (int x = 0; x < vp.w; ++x) {
-      int sum[3] = {0, 0, 0};
-      for (int j = 0; j < ss; ++j) {
-        const std::uint8_t* row =
-            &frame.rgb[((static_cast<std::size_t>(y) * ss + j) * W + x * ss) * 3];
-        for (int i = 0; i < ss * 3; ++i) sum[i % 3] += row[i];
-      }
-      const int count = ss * ss;
-      image.set(vp.x + x, vp.y + y,
-                {static_cast<std::uint8_t>((sum[0] + count / 2) / count),
-                 static_cast<std::uint8_t>((sum[1] + count / 2) / count),
-                 static_cast<std::uint8_t>((sum[2] + count / 2) / count)});
-    }
-  }
-
-  // Handle markers: white outlines first, then the dots, so clusters read as one region.
-  if (!options.handles.empty()) {
-    const double radius = options.handleRadius > 0
-                              ? options.handleRadius
-                              : std::max(2.5, std::min(options.width, options.height) / 150.0);
-    const double outline = std::max(1.0, radius / 3.0);
-    std::vector<Eigen::Vector2d> visible;
-    for (int v : options.handles) {
-      const Eigen::Vector3d q = screen[v];
-      if (!q.allFinite()) continue;
-      const int sx = static_cast<int>(std::floor(q.x())), sy = static_cast<int>(std::floor(q.y()));
-      bool seen = false;
-      for (int j = sy - 1; j <= sy + 1 && !seen; ++j)
-        for (int i = sx - 1; i <= sx + 1 && !seen; ++i)
-          if (i >= 0 && j >= 0 && i < W && j < H)
-            seen = q.z() >= zbuf[static_cast<std::size_t>(j) * W + i] - 2.0 * ss;
-      if (seen) visible.emplace_back(vp.x + q.x() / ss, vp.y + q.y() / ss);
-    }
-    for (const auto& c : visible) drawDisc(image, c.x(), c.y(), radius + outline, colors::white);
-    for (const auto& c : visible) drawDisc(image, c.x(), c.y(), radius, options.handleColor);
-  }
-
+  Raster raster = makeRaster(layout.viewport, options);
+  const Scene scene = makeScene(mesh, options, field, raster);
+  for (int k = 0; k < static_cast<int>(scene.list.tris.size()); ++k)
+    drawTriangle(raster, scene, k);
+  downsample(raster, image, layout.viewport);
+  drawHandles(image, raster, scene, layout.viewport);
   if (field.present && layout.colorBar.w > 0) drawColorBar(image, layout, field, options);
-  if (!options.title.empty()) {
-    const int ts = layout.textScale;
-    const int w = textWidth(options.title, ts);
-    const int x = std::max(0, std::min(vp.x + (vp.w - w) / 2, options.width - w));  // over the mesh
-    drawText(image, x, layout.title.y, options.title, colors::darkGray, ts);
-  }
+  if (!options.title.empty()) drawTitle(image, layout, options);
   return image;
 }
 

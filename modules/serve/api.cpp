@@ -232,6 +232,270 @@ ApiResponse jsonResponse(const json& j) {
   return r;
 }
 
+/// GET /api/mesh: the rest mesh and the triangles the page draws (a tet mesh's boundary), each
+/// with the element it shows.
+ApiResponse meshResponse(const EditSession& s, const std::string& meshName) {
+  const Mesh& mesh = s.restMesh();
+  json faces = json::array(), faceElement = json::array();
+  if (mesh.isTet()) {
+    const BoundaryFaces boundary = tetBoundary(mesh.tet());
+    for (size_t f = 0; f < boundary.faces.size(); ++f) {
+      for (int c = 0; c < 3; ++c) faces.push_back(boundary.faces[f][static_cast<size_t>(c)]);
+      faceElement.push_back(boundary.element[f]);
+    }
+  } else {
+    const Eigen::MatrixXi e = mesh.elements();
+    for (Eigen::Index k = 0; k < e.rows(); ++k) {
+      for (int c = 0; c < 3; ++c) faces.push_back(e(k, c));
+      faceElement.push_back(k);
+    }
+  }
+  const Eigen::VectorXd rest = flatten(mesh.positions());
+  return jsonResponse({{"name", meshName},
+                       {"kind", toString(mesh.kind())},
+                       {"vertices", s.numVertices()},
+                       {"elements", mesh.numElements()},
+                       {"dim", s.discretization().dim()},
+                       {"diagonal", s.discretization().boundingBoxDiagonal()},
+                       {"rest", std::vector<double>(rest.data(), rest.data() + rest.size())},
+                       {"faces", faces},
+                       {"face_element", faceElement}});
+}
+
+/// ?format=f32: `values` as raw float32 with the version of the results they belong to.
+ApiResponse float32Response(const Eigen::VectorXd& values, long version) {
+  ApiResponse out;
+  out.contentType = "application/octet-stream";
+  out.body = float32(values);
+  out.headers.push_back({"X-Diffreg-Version", std::to_string(version)});
+  return out;
+}
+
+/// GET /api/positions: the current positions, flattened.
+ApiResponse positionsResponse(const EditSession& s, const std::string& format) {
+  const Eigen::VectorXd x = flatten(s.positions());
+  if (format == "f32") return float32Response(x, s.computedVersion());
+  return jsonResponse({{"version", s.computedVersion()},
+                       {"positions", std::vector<double>(x.data(), x.data() + x.size())}});
+}
+
+/// GET /api/field?name=: the weights (per vertex), the distortion or the smoothness (per
+/// element) with their range.
+ApiResponse fieldResponse(const EditSession& s, const ApiRequest& r, const std::string& format) {
+  const std::string name = r.query.count("name") ? r.query.at("name") : "";
+  const Eigen::VectorXd* values = nullptr;
+  std::string site = "element";
+  if (name == "weight") {
+    values = &s.weights();
+    site = "vertex";
+  } else if (name == "distortion") {
+    values = &s.distortion();
+  } else if (name == "smoothness") {
+    values = &s.smoothness();
+  } else {
+    throw InvalidParameter("field name = '" + name +
+                           "' is not one of: weight, distortion, smoothness");
+  }
+  const double lo = values->size() ? values->minCoeff() : 0.0;
+  const double hi = values->size() ? values->maxCoeff() : 0.0;
+  if (format == "f32") {
+    ApiResponse out = float32Response(*values, s.computedVersion());
+    out.headers.push_back({"X-Diffreg-Site", site});
+    return out;
+  }
+  return jsonResponse(
+      {{"name", name},
+       {"site", site},
+       {"version", s.computedVersion()},
+       {"min", lo},
+       {"max", hi},
+       {"values", std::vector<double>(values->data(), values->data() + values->size())}});
+}
+
+/// GET /api/handles: the handle file; ?download as an attachment named after the mesh `stem`.
+ApiResponse handlesResponse(const EditSession& s, const ApiRequest& r, const std::string& stem) {
+  ApiResponse out;
+  out.body = handlesToJson(s.handleSet());
+  if (r.query.count("download")) out.filename = stem + "-handles.json";
+  return out;
+}
+
+/// GET /api/export/mesh.ply: the deformed mesh as the tool writes it.
+ApiResponse meshExport(const EditSession& s, const std::string& stem) {
+  TempFile file(".ply");
+  writeMesh(file.path.string(), s.resultMesh());
+  ApiResponse out;
+  out.contentType = "application/octet-stream";
+  out.body = readAll(file.path);
+  out.filename = stem + "-deformed.ply";
+  return out;
+}
+
+/// The picture GET /api/export/image.png asks for: size and view from the query, `field`
+/// coloured on its usual scale, the handles marked.
+RenderOptions imageOptions(const EditSession& s, const ApiRequest& r, const std::string& field,
+                           const std::string& stem) {
+  RenderOptions options;
+  options.width = queryInt(r, "width", 1200, 64, 4096);
+  options.height = queryInt(r, "height", 800, 64, 4096);
+  options.yaw = queryDouble(r, "yaw", options.yaw);
+  options.pitch = queryDouble(r, "pitch", options.pitch);
+  if (field == "weight") {
+    options.property = prop::weight;
+    options.colormap = Colormap::Viridis;
+    options.rangeMin = 0.0;
+    options.rangeMax = 1.0;
+  } else if (field == "distortion" || field == "smoothness") {
+    options.property = field == "distortion" ? prop::distortion : prop::smoothness;
+    options.colormap = Colormap::Turbo;
+    options.rangeMin = 0.0;
+  } else if (field != "none") {
+    throw InvalidParameter("field = '" + field +
+                           "' is not one of: weight, distortion, smoothness, none");
+  }
+  for (const EditHandle& h : s.state().handles)
+    options.handles.insert(options.handles.end(), h.vertices.begin(), h.vertices.end());
+  options.wireframe = s.restMesh().numElements() <= 5000;
+  options.title = stem + (field == "none" ? "" : " - " + field);
+  return options;
+}
+
+/// GET /api/export/image.png?field=: the deformed mesh from the software renderer.
+ApiResponse imageExport(const EditSession& s, const ApiRequest& r, const std::string& stem) {
+  const std::string field = r.query.count("field") ? r.query.at("field") : "weight";
+  const RenderOptions options = imageOptions(s, r, field, stem);
+  TempFile file(".png");
+  writePng(file.path.string(), renderMesh(s.resultMesh(), options));
+  ApiResponse out;
+  out.contentType = "image/png";
+  out.body = readAll(file.path);
+  out.filename = stem + "-" + field + ".png";
+  return out;
+}
+
+/// Applies the fields of a PATCH /api/params body to `q`.
+/// \throw RequestError for an unknown field or one of the wrong type.
+void applyParams(const json& body, EditParams& q) {
+  allowOnly(body,
+            {"energy", "regularization", "beta", "scheme", "order", "t", "unit", "steps", "solve",
+             "iterations", "tolerance", "local_step", "acceleration", "sigma", "rbf_distance",
+             "reference", "continue_drags"},
+            "params");
+  if (body.contains("energy")) q.energy = parseEnum<Energy>(text(body, "energy"));
+  if (body.contains("regularization"))
+    q.regularization = parseEnum<Regularization>(text(body, "regularization"));
+  if (body.contains("beta")) q.beta = number(body, "beta");
+  if (body.contains("scheme")) q.scheme = parseEnum<WeightScheme>(text(body, "scheme"));
+  if (body.contains("order")) q.diffusion.order = parseEnum<DiffusionOrder>(text(body, "order"));
+  if (body.contains("t")) q.diffusion.t = number(body, "t");
+  if (body.contains("unit")) q.diffusion.unit = parseEnum<TimeUnit>(text(body, "unit"));
+  if (body.contains("steps")) q.diffusion.steps = integer(body.at("steps"), "'steps'");
+  if (body.contains("solve")) q.diffusion.solve = parseEnum<DiffusionSolve>(text(body, "solve"));
+  if (body.contains("iterations")) q.iterations = integer(body.at("iterations"), "'iterations'");
+  if (body.contains("tolerance")) q.tolerance = number(body, "tolerance");
+  if (body.contains("local_step")) q.localStep = parseEnum<LocalStep>(text(body, "local_step"));
+  if (body.contains("acceleration"))
+    q.acceleration = parseEnum<Acceleration>(text(body, "acceleration"));
+  if (body.contains("sigma")) q.rbf.sigma = number(body, "sigma");
+  if (body.contains("rbf_distance"))
+    q.rbf.distance = parseEnum<RbfDistance>(text(body, "rbf_distance"));
+  if (body.contains("reference")) q.reference = boolean(body, "reference");
+  if (body.contains("continue_drags")) q.continueDrags = boolean(body, "continue_drags");
+}
+
+/// POST /api/handles: a new handle with the next id of `want`; its targets default to the
+/// current `positions` of its vertices (of `n`).
+EditHandle newHandle(const json& body, EditState& want, const Eigen::MatrixXd& positions, int n) {
+  allowOnly(body, {"vertices", "name", "range", "magnitude", "targets"}, "handle");
+  if (!body.contains("vertices")) throw RequestError(400, "handle: 'vertices' is missing");
+  EditHandle h;
+  h.id = want.nextId++;
+  h.vertices = vertexList(body.at("vertices"), "'vertices'", n);
+  if (body.contains("name")) h.name = text(body, "name");
+  if (body.contains("range")) h.range = number(body, "range");
+  if (body.contains("magnitude")) h.magnitude = number(body, "magnitude");
+  if (body.contains("targets")) {
+    h.targets = points(body.at("targets"), "'targets'");
+  } else {
+    h.targets.resize(static_cast<Eigen::Index>(h.vertices.size()), 3);
+    for (size_t i = 0; i < h.vertices.size(); ++i)
+      h.targets.row(static_cast<Eigen::Index>(i)) = positions.row(h.vertices[i]);
+  }
+  return h;
+}
+
+/// The handle of `handles` whose id is `idText` (from /api/handles/ID).
+/// \throw RequestError 404 when there is none.
+std::vector<EditHandle>::iterator findHandle(std::vector<EditHandle>& handles,
+                                             const std::string& idText) {
+  int id = -1;
+  try {
+    size_t used = 0;
+    id = std::stoi(idText, &used);
+    if (used != idText.size()) id = -1;
+  } catch (const std::exception&) {
+  }
+  auto it = std::find_if(handles.begin(), handles.end(),
+                         [&](const EditHandle& h) { return h.id == id && id >= 0; });
+  if (it == handles.end()) throw RequestError(404, "no handle with id '" + idText + "'");
+  return it;
+}
+
+/// PATCH /api/handles/ID: applies the body to handle `h`; added vertices start at their
+/// current `positions`.
+void changeHandle(const json& body, EditHandle& h, const std::string& idText,
+                  const Eigen::MatrixXd& positions, int n) {
+  allowOnly(body, {"add_vertices", "move_to", "targets", "range", "magnitude", "name"},
+            "handle " + idText);
+  if (body.contains("add_vertices")) {
+    for (int v : vertexList(body.at("add_vertices"), "'add_vertices'", n)) {
+      h.vertices.push_back(v);
+      h.targets.conservativeResize(h.targets.rows() + 1, 3);
+      h.targets.row(h.targets.rows() - 1) = positions.row(v);
+    }
+  }
+  if (body.contains("targets")) h.targets = points(body.at("targets"), "'targets'");
+  if (body.contains("move_to")) {
+    const Eigen::Vector3d to = point(body.at("move_to"), "'move_to'");
+    const Eigen::RowVector3d centroid = h.targets.colwise().mean();
+    h.targets.rowwise() += to.transpose() - centroid;
+  }
+  if (body.contains("range")) h.range = number(body, "range");
+  if (body.contains("magnitude")) h.magnitude = number(body, "magnitude");
+  if (body.contains("name")) h.name = text(body, "name");
+}
+
+/// Applies one edit request (parsed `body`, the PUT's `replacement` handles) to the session.
+/// Returns the id of a handle it created, else -1.
+int applyEdit(EditSession& s, const ApiRequest& r, const json& body,
+              const std::optional<HandleSet>& replacement) {
+  const std::string& p = r.path;
+  if (p == "/api/handles" && r.method == "PUT") {
+    s.setHandles(*replacement);
+    return -1;
+  }
+  EditState want = s.state();
+  int created = -1;
+  if (p == "/api/params") {
+    applyParams(body, want.params);
+  } else if (p == "/api/handles" && r.method == "DELETE") {
+    want.handles.clear();
+  } else if (p == "/api/handles") {  // POST: a new handle
+    EditHandle h = newHandle(body, want, s.positions(), s.numVertices());
+    created = h.id;
+    want.handles.push_back(std::move(h));
+  } else {  // /api/handles/ID
+    const std::string idText = p.substr(std::strlen("/api/handles/"));
+    auto it = findHandle(want.handles, idText);
+    if (r.method == "DELETE")
+      want.handles.erase(it);
+    else
+      changeHandle(body, *it, idText, s.positions(), s.numVertices());
+  }
+  s.setState(std::move(want));
+  return created;
+}
+
 }  // namespace
 
 ApiResponse errorResponse(int status, const std::string& message) {
@@ -325,125 +589,13 @@ ApiResponse Api::read(const ApiRequest& r) {
     out.body = stateJson(false, -1);
     return out;
   }
-  if (p == "/api/mesh") {
-    const Mesh& mesh = s.restMesh();
-    json faces = json::array(), faceElement = json::array();
-    if (mesh.isTet()) {
-      const BoundaryFaces boundary = tetBoundary(mesh.tet());
-      for (size_t f = 0; f < boundary.faces.size(); ++f) {
-        for (int c = 0; c < 3; ++c) faces.push_back(boundary.faces[f][static_cast<size_t>(c)]);
-        faceElement.push_back(boundary.element[f]);
-      }
-    } else {
-      const Eigen::MatrixXi e = mesh.elements();
-      for (Eigen::Index k = 0; k < e.rows(); ++k) {
-        for (int c = 0; c < 3; ++c) faces.push_back(e(k, c));
-        faceElement.push_back(k);
-      }
-    }
-    const Eigen::VectorXd rest = flatten(mesh.positions());
-    return jsonResponse({{"name", meshName_},
-                         {"kind", toString(mesh.kind())},
-                         {"vertices", s.numVertices()},
-                         {"elements", mesh.numElements()},
-                         {"dim", s.discretization().dim()},
-                         {"diagonal", s.discretization().boundingBoxDiagonal()},
-                         {"rest", std::vector<double>(rest.data(), rest.data() + rest.size())},
-                         {"faces", faces},
-                         {"face_element", faceElement}});
-  }
-  if (p == "/api/positions") {
-    const Eigen::VectorXd x = flatten(s.positions());
-    if (format == "f32") {
-      ApiResponse out;
-      out.contentType = "application/octet-stream";
-      out.body = float32(x);
-      out.headers.push_back({"X-Diffreg-Version", std::to_string(s.computedVersion())});
-      return out;
-    }
-    return jsonResponse({{"version", s.computedVersion()},
-                         {"positions", std::vector<double>(x.data(), x.data() + x.size())}});
-  }
-  if (p == "/api/field") {
-    const std::string name = r.query.count("name") ? r.query.at("name") : "";
-    const Eigen::VectorXd* values = nullptr;
-    std::string site = "element";
-    if (name == "weight") {
-      values = &s.weights();
-      site = "vertex";
-    } else if (name == "distortion") {
-      values = &s.distortion();
-    } else if (name == "smoothness") {
-      values = &s.smoothness();
-    } else {
-      throw InvalidParameter("field name = '" + name +
-                             "' is not one of: weight, distortion, smoothness");
-    }
-    const double lo = values->size() ? values->minCoeff() : 0.0;
-    const double hi = values->size() ? values->maxCoeff() : 0.0;
-    if (format == "f32") {
-      ApiResponse out;
-      out.contentType = "application/octet-stream";
-      out.body = float32(*values);
-      out.headers.push_back({"X-Diffreg-Version", std::to_string(s.computedVersion())});
-      out.headers.push_back({"X-Diffreg-Site", site});
-      return out;
-    }
-    return jsonResponse(
-        {{"name", name},
-         {"site", site},
-         {"version", s.computedVersion()},
-         {"min", lo},
-         {"max", hi},
-         {"values", std::vector<double>(values->data(), values->data() + values->size())}});
-  }
+  if (p == "/api/mesh") return meshResponse(s, meshName_);
+  if (p == "/api/positions") return positionsResponse(s, format);
+  if (p == "/api/field") return fieldResponse(s, r, format);
   const std::string stem = fs::path(meshName_).stem().string();
-  if (p == "/api/handles") {
-    ApiResponse out;
-    out.body = handlesToJson(s.handleSet());
-    if (r.query.count("download")) out.filename = stem + "-handles.json";
-    return out;
-  }
-  if (p == "/api/export/mesh.ply") {
-    TempFile file(".ply");
-    writeMesh(file.path.string(), s.resultMesh());
-    ApiResponse out;
-    out.contentType = "application/octet-stream";
-    out.body = readAll(file.path);
-    out.filename = stem + "-deformed.ply";
-    return out;
-  }
-  // /api/export/image.png
-  const std::string field = r.query.count("field") ? r.query.at("field") : "weight";
-  RenderOptions options;
-  options.width = queryInt(r, "width", 1200, 64, 4096);
-  options.height = queryInt(r, "height", 800, 64, 4096);
-  options.yaw = queryDouble(r, "yaw", options.yaw);
-  options.pitch = queryDouble(r, "pitch", options.pitch);
-  if (field == "weight") {
-    options.property = prop::weight;
-    options.colormap = Colormap::Viridis;
-    options.rangeMin = 0.0;
-    options.rangeMax = 1.0;
-  } else if (field == "distortion" || field == "smoothness") {
-    options.property = field == "distortion" ? prop::distortion : prop::smoothness;
-    options.colormap = Colormap::Turbo;
-    options.rangeMin = 0.0;
-  } else if (field != "none") {
-    throw InvalidParameter("field = '" + field +
-                           "' is not one of: weight, distortion, smoothness, none");
-  }
-  for (const EditHandle& h : s.state().handles)
-    options.handles.insert(options.handles.end(), h.vertices.begin(), h.vertices.end());
-  options.wireframe = s.restMesh().numElements() <= 5000;
-  options.title = stem + (field == "none" ? "" : " - " + field);
-  TempFile file(".png");
-  writePng(file.path.string(), renderMesh(s.resultMesh(), options));
-  ApiResponse out;
-  out.contentType = "image/png";
-  out.body = readAll(file.path);
-  out.filename = stem + "-" + field + ".png";
-  return out;
+  if (p == "/api/handles") return handlesResponse(s, r, stem);
+  if (p == "/api/export/mesh.ply") return meshExport(s, stem);
+  return imageExport(s, r, stem);  // /api/export/image.png
 }
 
 ApiResponse Api::edit(const ApiRequest& r) {
@@ -460,102 +612,9 @@ ApiResponse Api::edit(const ApiRequest& r) {
   ++waiting_;
   std::unique_lock<std::mutex> lock(mutex_);
   --waiting_;
-  EditSession& s = *session_;
-  const int n = s.numVertices();
-  EditState want = s.state();
   int created = -1;
   try {
-    const std::string& p = r.path;
-    if (p == "/api/params") {
-      allowOnly(body,
-                {"energy", "regularization", "beta", "scheme", "order", "t", "unit", "steps",
-                 "solve", "iterations", "tolerance", "local_step", "acceleration", "sigma",
-                 "rbf_distance", "reference", "continue_drags"},
-                "params");
-      EditParams& q = want.params;
-      if (body.contains("energy")) q.energy = parseEnum<Energy>(text(body, "energy"));
-      if (body.contains("regularization"))
-        q.regularization = parseEnum<Regularization>(text(body, "regularization"));
-      if (body.contains("beta")) q.beta = number(body, "beta");
-      if (body.contains("scheme")) q.scheme = parseEnum<WeightScheme>(text(body, "scheme"));
-      if (body.contains("order")) q.diffusion.order = parseEnum<DiffusionOrder>(text(body, "order"));
-      if (body.contains("t")) q.diffusion.t = number(body, "t");
-      if (body.contains("unit")) q.diffusion.unit = parseEnum<TimeUnit>(text(body, "unit"));
-      if (body.contains("steps")) q.diffusion.steps = integer(body.at("steps"), "'steps'");
-      if (body.contains("solve")) q.diffusion.solve = parseEnum<DiffusionSolve>(text(body, "solve"));
-      if (body.contains("iterations"))
-        q.iterations = integer(body.at("iterations"), "'iterations'");
-      if (body.contains("tolerance")) q.tolerance = number(body, "tolerance");
-      if (body.contains("local_step")) q.localStep = parseEnum<LocalStep>(text(body, "local_step"));
-      if (body.contains("acceleration"))
-        q.acceleration = parseEnum<Acceleration>(text(body, "acceleration"));
-      if (body.contains("sigma")) q.rbf.sigma = number(body, "sigma");
-      if (body.contains("rbf_distance"))
-        q.rbf.distance = parseEnum<RbfDistance>(text(body, "rbf_distance"));
-      if (body.contains("reference")) q.reference = boolean(body, "reference");
-      if (body.contains("continue_drags")) q.continueDrags = boolean(body, "continue_drags");
-      s.setState(std::move(want));
-    } else if (p == "/api/handles" && r.method == "DELETE") {
-      want.handles.clear();
-      s.setState(std::move(want));
-    } else if (p == "/api/handles" && r.method == "PUT") {
-      s.setHandles(*replacement);
-    } else if (p == "/api/handles") {  // POST: a new handle
-      allowOnly(body, {"vertices", "name", "range", "magnitude", "targets"}, "handle");
-      if (!body.contains("vertices")) throw RequestError(400, "handle: 'vertices' is missing");
-      EditHandle h;
-      h.id = want.nextId++;
-      h.vertices = vertexList(body.at("vertices"), "'vertices'", n);
-      if (body.contains("name")) h.name = text(body, "name");
-      if (body.contains("range")) h.range = number(body, "range");
-      if (body.contains("magnitude")) h.magnitude = number(body, "magnitude");
-      if (body.contains("targets")) {
-        h.targets = points(body.at("targets"), "'targets'");
-      } else {
-        h.targets.resize(static_cast<Eigen::Index>(h.vertices.size()), 3);
-        for (size_t i = 0; i < h.vertices.size(); ++i)
-          h.targets.row(static_cast<Eigen::Index>(i)) = s.positions().row(h.vertices[i]);
-      }
-      created = h.id;
-      want.handles.push_back(std::move(h));
-      s.setState(std::move(want));
-    } else {  // /api/handles/ID
-      const std::string idText = p.substr(std::strlen("/api/handles/"));
-      int id = -1;
-      try {
-        size_t used = 0;
-        id = std::stoi(idText, &used);
-        if (used != idText.size()) id = -1;
-      } catch (const std::exception&) {
-      }
-      auto it = std::find_if(want.handles.begin(), want.handles.end(),
-                             [&](const EditHandle& h) { return h.id == id && id >= 0; });
-      if (it == want.handles.end()) throw RequestError(404, "no handle with id '" + idText + "'");
-      if (r.method == "DELETE") {
-        want.handles.erase(it);
-      } else {
-        allowOnly(body, {"add_vertices", "move_to", "targets", "range", "magnitude", "name"},
-                  "handle " + idText);
-        EditHandle& h = *it;
-        if (body.contains("add_vertices")) {
-          for (int v : vertexList(body.at("add_vertices"), "'add_vertices'", n)) {
-            h.vertices.push_back(v);
-            h.targets.conservativeResize(h.targets.rows() + 1, 3);
-            h.targets.row(h.targets.rows() - 1) = s.positions().row(v);
-          }
-        }
-        if (body.contains("targets")) h.targets = points(body.at("targets"), "'targets'");
-        if (body.contains("move_to")) {
-          const Eigen::Vector3d to = point(body.at("move_to"), "'move_to'");
-          const Eigen::RowVector3d centroid = h.targets.colwise().mean();
-          h.targets.rowwise() += to.transpose() - centroid;
-        }
-        if (body.contains("range")) h.range = number(body, "range");
-        if (body.contains("magnitude")) h.magnitude = number(body, "magnitude");
-        if (body.contains("name")) h.name = text(body, "name");
-      }
-      s.setState(std::move(want));
-    }
+    created = applyEdit(*session_, r, body, replacement);
   } catch (...) {
     finish();  // an earlier edit that skipped its update because of this one
     throw;

@@ -285,57 +285,24 @@ py::list filterTables() {
   return out;
 }
 
-}  // namespace
-
-}  // namespace diffreg::python
-
-PYBIND11_MODULE(diffreg, m) {
-  using namespace diffreg::python;
-  namespace dr = diffreg;
-  py::options options;
-  options.disable_function_signatures();  // the docstrings carry them, from the filter tables
-  registerExceptions();
-
-  m.doc() =
-      "Regularized variational mesh deformation with diffused non-uniform weights (Zhu, Li, "
-      "Zhang, Song, CAD 2016).\n\n"
-      "numpy in and out: positions V (n, 3) float64, elements E (m, 3) triangles or (m, 4) "
-      "tets, integer. Handles are a list of vertex-id arrays, one per handle. Parameters have "
-      "the names, defaults and checks of the `diffreg` tool's filters (see filters()). Errors "
-      "raise ValueError (invalid parameter, mesh or system) or OSError (files) with the "
-      "tool's one-line message.";
-  m.attr("__version__") = DIFFREG_VERSION_STRING;
-
-  const std::string weightsArgs = "V, E, handles, ranges=None, magnitudes=None";
+// diffuse_weights() and rbf_weights(): the weights filter `filter` on arrays; `description`
+// opens the docstring, the filter's parameter table follows.
+void bindWeights(py::module_& m, const std::string& filter, const std::string& description) {
   m.def(
-      "diffuse_weights",
-      [](const py::object& V, const py::object& E, const py::object& handles,
-         const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
-        return weightsOf(V, E, handles, ranges, magnitudes, "diffuse_weights", kwargs);
+      filter.c_str(),
+      [filter](const py::object& V, const py::object& E, const py::object& handles,
+               const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
+        return weightsOf(V, E, handles, ranges, magnitudes, filter, kwargs);
       },
       py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
       py::arg("magnitudes") = py::none(),
-      ("diffuse_weights(" + weightsArgs + paramSignature("diffuse_weights") +
-       ") -> weights (n,)\n\n"
-       "Diffused regularization weights: heat flows from the handles (value m_j = "
-       "magnitudes[j], range r_j = ranges[j], both 1 by default) for the time t, as the "
-       "filter diffuse_weights of the diffreg tool.\n\n" +
-       paramDoc("diffuse_weights"))
+      (filter + "(V, E, handles, ranges=None, magnitudes=None" + paramSignature(filter) +
+       ") -> weights (n,)\n\n" + description + "\n\n" + paramDoc(filter))
           .c_str());
-  m.def(
-      "rbf_weights",
-      [](const py::object& V, const py::object& E, const py::object& handles,
-         const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
-        return weightsOf(V, E, handles, ranges, magnitudes, "rbf_weights", kwargs);
-      },
-      py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
-      py::arg("magnitudes") = py::none(),
-      ("rbf_weights(" + weightsArgs + paramSignature("rbf_weights") +
-       ") -> weights (n,)\n\n"
-       "The paper's RBF baseline weights, sum_j m_j exp(-(d / (r_j sigma))^2), as the filter "
-       "rbf_weights of the diffreg tool.\n\n" +
-       paramDoc("rbf_weights"))
-          .c_str());
+}
+
+// deform() and measure(): the deformation of arrays and its metrics.
+void bindDeformation(py::module_& m) {
   m.def("deform", &deformArrays, py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("targets"),
         py::arg("weights") = py::none(),
         ("deform(V, E, handles, targets, weights=None" + paramSignature("deform") +
@@ -362,6 +329,10 @@ PYBIND11_MODULE(diffreg, m) {
          "(the tool's diffreg:distortion).\n\n" +
          paramDoc("deform", {"local_step", "acceleration", "iterations", "tolerance"}))
             .c_str());
+}
+
+// read_mesh(), read_handles() and write_mesh(): the tool's file formats as arrays.
+void bindFiles(py::module_& m) {
   m.def("read_mesh", &readArrays, py::arg("path"), py::arg("properties") = false,
         "read_mesh(path, properties=False) -> (V, E) or (V, E, vertex_properties, "
         "element_properties)\n\nReads OBJ, OFF, PLY, OM, Medit .mesh or TetGen .node/.ele "
@@ -375,14 +346,18 @@ PYBIND11_MODULE(diffreg, m) {
         "ids and (k_j, 3) targets of each handle, ready for deform() and diffuse_weights().");
   m.def("write_mesh", &writeArrays, py::arg("path"), py::arg("V"), py::arg("E"),
         py::arg("vertex_properties") = py::none(), py::arg("element_properties") = py::none(),
-        py::arg("vertex_quality") = std::string(dr::prop::weight),
-        py::arg("face_quality") = std::string(dr::prop::distortion), py::arg("colors") = true,
+        py::arg("vertex_quality") = std::string(prop::weight),
+        py::arg("face_quality") = std::string(prop::distortion), py::arg("colors") = true,
         "write_mesh(path, V, E, vertex_properties=None, element_properties=None, "
         "vertex_quality='diffreg:weight', face_quality='diffreg:distortion', colors=True)\n\n"
         "Writes OBJ/OFF/PLY/OM (triangles) or .mesh/PLY boundary (tets), atomically. "
         "vertex_properties / element_properties: dicts name -> (n,) / (m,) arrays. PLY writes "
         "the property `vertex_quality` as vertex quality (with viridis colours when colors) and "
         "`face_quality` as face quality; .om keeps all of them.");
+}
+
+// run() and filters(): whole pipelines of the tool's filters and their tables.
+void bindPipeline(py::module_& m) {
   m.def("run", &runPipeline, py::arg("mesh"), py::arg("filters") = py::list(),
         py::arg("handles") = py::none(), py::arg("targets") = py::none(),
         py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
@@ -400,5 +375,37 @@ PYBIND11_MODULE(diffreg, m) {
   m.def("filters", &filterTables,
         "filters() -> list\n\nEvery filter of the diffreg tool with its description and "
         "parameter table (name, type, default as text, choices, range, help).");
+}
+
+}  // namespace
+
+}  // namespace diffreg::python
+
+PYBIND11_MODULE(diffreg, m) {
+  using namespace diffreg::python;
+  py::options options;
+  options.disable_function_signatures();  // the docstrings carry them, from the filter tables
+  registerExceptions();
+
+  m.doc() =
+      "Regularized variational mesh deformation with diffused non-uniform weights (Zhu, Li, "
+      "Zhang, Song, CAD 2016).\n\n"
+      "numpy in and out: positions V (n, 3) float64, elements E (m, 3) triangles or (m, 4) "
+      "tets, integer. Handles are a list of vertex-id arrays, one per handle. Parameters have "
+      "the names, defaults and checks of the `diffreg` tool's filters (see filters()). Errors "
+      "raise ValueError (invalid parameter, mesh or system) or OSError (files) with the "
+      "tool's one-line message.";
+  m.attr("__version__") = DIFFREG_VERSION_STRING;
+
+  bindWeights(m, "diffuse_weights",
+              "Diffused regularization weights: heat flows from the handles (value m_j = "
+              "magnitudes[j], range r_j = ranges[j], both 1 by default) for the time t, as the "
+              "filter diffuse_weights of the diffreg tool.");
+  bindWeights(m, "rbf_weights",
+              "The paper's RBF baseline weights, sum_j m_j exp(-(d / (r_j sigma))^2), as the "
+              "filter rbf_weights of the diffreg tool.");
+  bindDeformation(m);
+  bindFiles(m);
+  bindPipeline(m);
   bindSessions(m);
 }

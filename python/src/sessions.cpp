@@ -195,9 +195,11 @@ class PyDeformationSession {
   std::vector<int> perHandle_;
 };
 
-}  // namespace
+// The docstring of both sessions' `stats`.
+const char* const kStatsDoc = "Solver counters: symbolic, numeric, solves and their seconds.";
 
-void bindSessions(py::module_& m) {
+// DiffusionWeights: the diffused weights that keep their factorization between solves.
+void bindDiffusionWeights(py::module_& m) {
   py::class_<PyDiffusionWeights>(
       m, "DiffusionWeights",
       ("DiffusionWeights(V, E" + paramSignature("diffuse_weights") +
@@ -227,9 +229,11 @@ void bindSessions(py::module_& m) {
                              "The current parameters as the tool's text values.")
       .def_property_readonly("absolute_time", &PyDiffusionWeights::absoluteTime,
                              "t in length^2 after applying t_unit.")
-      .def_property_readonly("stats", &PyDiffusionWeights::stats,
-                             "Solver counters: symbolic, numeric, solves and their seconds.");
+      .def_property_readonly("stats", &PyDiffusionWeights::stats, kStatsDoc);
+}
 
+// DeformationSession: the regularized deformation that keeps its factorization between solves.
+void bindDeformationSession(py::module_& m) {
   const std::string limitsDoc =
       "iterations, tolerance: None = the session's (from the constructor's parameters).";
   py::class_<PyDeformationSession>(
@@ -279,8 +283,14 @@ void bindSessions(py::module_& m) {
             "where it stopped (as one long run); solves afresh when nothing can be continued. " +
             limitsDoc)
                .c_str())
-      .def_property_readonly("stats", &PyDeformationSession::stats,
-                             "Solver counters: symbolic, numeric, solves and their seconds.");
+      .def_property_readonly("stats", &PyDeformationSession::stats, kStatsDoc);
+}
+
+}  // namespace
+
+void bindSessions(py::module_& m) {
+  bindDiffusionWeights(m);
+  bindDeformationSession(m);
 }
 
 }  // namespace diffreg::python

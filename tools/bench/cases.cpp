@@ -147,6 +147,81 @@ std::function<BenchMesh()> shared(const std::string& label, const std::string& f
   };
 }
 
+// A weights case's set-up: the mesh, its discretization and the three handle regions.
+Prepared prepareWeights(State& state, const std::function<BenchMesh()>& make) {
+  state.mesh = make();
+  if (state.mesh.source.empty()) {
+    Prepared p;
+    p.available = false;
+    p.skipReason = "mesh not found in " + sharedMeshDirectory();
+    return p;
+  }
+  Timer timer;
+  state.disc = std::make_unique<Discretization>(state.mesh.mesh);
+  Prepared p = describe(state);
+  p.facts["discretization_s"] = timer.seconds();
+  state.weightHandles = weightHandles(*state.disc);
+  int fixed = 0;
+  for (const auto& set : state.weightHandles.sets) fixed += static_cast<int>(set.size());
+  p.facts["handles"] = static_cast<double>(state.weightHandles.sets.size());
+  p.facts["handle_vertices"] = fixed;
+  return p;
+}
+
+// One repeat of a weights case: what the diffuse_weights filter does (discretize the rest
+// shape, then one session), then a new t and a new magnitude, checking that each reuses as
+// much of the factorization as paper Fig. 5 says.
+Sample runWeights(const State& state, const WeightScheme& scheme) {
+  Timer whole;
+  const Discretization disc(state.mesh.mesh);
+  const double discretization = whole.seconds();
+  DiffusionWeights w(disc);
+  const WeightHandles& h = state.weightHandles;
+  w.setHandles(h.sets, h.ranges, h.magnitudes);
+  DiffusionParams p;
+  p.order = scheme.order;
+  p.solve = scheme.solve;
+  p.t = 0.01;
+  w.setParams(p);
+  Timer timer;
+  w.solve();
+  const double firstSolve = timer.seconds();
+  const double filter = whole.seconds();
+  const SolverStats s1 = w.stats();
+  const DiffusionSolveInfo cg = w.lastSolve();
+  // The solve phase: the back-substitution, or the whole CG (its products with B too).
+  const double solvePhase = cg.cgIterations > 0 ? cg.cgSeconds : s1.solveSeconds;
+  // A new t: numeric refactorization only (paper Fig. 5).
+  p.t = 0.012;
+  w.setParams(p);
+  timer.reset();
+  w.solve();
+  const double refactor = timer.seconds();
+  const SolverStats s2 = w.stats() - s1;
+  // A new magnitude: right-hand side and solve only.
+  w.setMagnitude(0, 0.9);
+  timer.reset();
+  w.solve();
+  const double resolve = timer.seconds();
+  const SolverStats s3 = w.stats() - s1 - s2;
+  if (s1.symbolic != 1 || s2.symbolic != 0 || s2.numeric != 1 || s3.numeric != 0)
+    throw Error("weights: the session did not reuse its factorization as Fig. 5 says");
+  if (!cg.converged) throw Error("weights: conjugate gradients did not converge");
+  return Sample{{"symbolic", s1.symbolicSeconds},
+                {"numeric", s1.numericSeconds},
+                {"factor", firstSolve - solvePhase},
+                {"solve", solvePhase},
+                {"whole", firstSolve},
+                {"discretization", discretization},
+                {"filter", filter},
+                {"cg_iterations_count", static_cast<double>(cg.cgIterations)},
+                {"refactor", refactor},
+                {"refactor_numeric", s2.numericSeconds},
+                {"resolve", resolve},
+                {"resolve_solve", s3.solveSeconds}};
+}
+
+// The weights cases of one mesh, one per scheme, with the paper's figures beside them.
 void addWeightCase(std::vector<Case>& cases, const std::string& label,
                    const std::function<BenchMesh()>& make, const PaperWeights& paper) {
   for (const WeightScheme& scheme : kWeightSchemes) {
@@ -157,76 +232,9 @@ void addWeightCase(std::vector<Case>& cases, const std::string& label,
     c.name = std::string("weights/") + scheme.name + "/" + label;
     c.paper = {{"factor", first ? paper.factor7 : paper.factor8},
                {"resolve", first ? paper.solve7 : paper.solve8}};
-    c.prepare = [state, make] {
-      state->mesh = make();
-      if (state->mesh.source.empty()) {
-        Prepared p;
-        p.available = false;
-        p.skipReason = "mesh not found in " + sharedMeshDirectory();
-        return p;
-      }
-      Timer timer;
-      state->disc = std::make_unique<Discretization>(state->mesh.mesh);
-      Prepared p = describe(*state);
-      p.facts["discretization_s"] = timer.seconds();
-      state->weightHandles = weightHandles(*state->disc);
-      int fixed = 0;
-      for (const auto& set : state->weightHandles.sets) fixed += static_cast<int>(set.size());
-      p.facts["handles"] = static_cast<double>(state->weightHandles.sets.size());
-      p.facts["handle_vertices"] = fixed;
-      return p;
-    };
+    c.prepare = [state, make] { return prepareWeights(*state, make); };
     c.release = [state] { *state = State(); };
-    c.run = [state, scheme] {
-      // What the diffuse_weights filter does: discretize the rest shape, then one session.
-      Timer whole;
-      const Discretization disc(state->mesh.mesh);
-      const double discretization = whole.seconds();
-      DiffusionWeights w(disc);
-      const WeightHandles& h = state->weightHandles;
-      w.setHandles(h.sets, h.ranges, h.magnitudes);
-      DiffusionParams p;
-      p.order = scheme.order;
-      p.solve = scheme.solve;
-      p.t = 0.01;
-      w.setParams(p);
-      Timer timer;
-      w.solve();
-      const double firstSolve = timer.seconds();
-      const double filter = whole.seconds();
-      const SolverStats s1 = w.stats();
-      const DiffusionSolveInfo cg = w.lastSolve();
-      // The solve phase: the back-substitution, or the whole CG (its products with B too).
-      const double solvePhase = cg.cgIterations > 0 ? cg.cgSeconds : s1.solveSeconds;
-      // A new t: numeric refactorization only (paper Fig. 5).
-      p.t = 0.012;
-      w.setParams(p);
-      timer.reset();
-      w.solve();
-      const double refactor = timer.seconds();
-      const SolverStats s2 = w.stats() - s1;
-      // A new magnitude: right-hand side and solve only.
-      w.setMagnitude(0, 0.9);
-      timer.reset();
-      w.solve();
-      const double resolve = timer.seconds();
-      const SolverStats s3 = w.stats() - s1 - s2;
-      if (s1.symbolic != 1 || s2.symbolic != 0 || s2.numeric != 1 || s3.numeric != 0)
-        throw Error("weights: the session did not reuse its factorization as Fig. 5 says");
-      if (!cg.converged) throw Error("weights: conjugate gradients did not converge");
-      return Sample{{"symbolic", s1.symbolicSeconds},
-                    {"numeric", s1.numericSeconds},
-                    {"factor", firstSolve - solvePhase},
-                    {"solve", solvePhase},
-                    {"whole", firstSolve},
-                    {"discretization", discretization},
-                    {"filter", filter},
-                    {"cg_iterations_count", static_cast<double>(cg.cgIterations)},
-                    {"refactor", refactor},
-                    {"refactor_numeric", s2.numericSeconds},
-                    {"resolve", resolve},
-                    {"resolve_solve", s3.solveSeconds}};
-    };
+    c.run = [state, scheme] { return runWeights(*state, scheme); };
     cases.push_back(std::move(c));
   }
 }

@@ -179,4 +179,34 @@ void StagedOutputs::commit() {
   staged_.clear();
 }
 
+std::vector<std::string> checkTableOutputs(const boost::program_options::variables_map& vm,
+                                           const std::string& command) {
+  std::vector<std::string> outputs;
+  for (const char* key : {"output", "report", "markdown"})
+    if (vm.count(key)) {
+      const std::string path = vm[key].as<std::string>();
+      for (const auto& other : outputs)
+        if (canonicalTarget(other) == canonicalTarget(path))
+          throw UsageError(command + ": output '" + path + "' given twice");
+      outputs.push_back(path);
+      checkOutputTarget(path, key == std::string("output") ? kPictureExtensions
+                                                           : std::vector<std::string>{});
+    }
+  return outputs;
+}
+
+void writeTableOutputs(const boost::program_options::variables_map& vm,
+                       const std::vector<std::string>& outputs, const std::string& table,
+                       const std::function<void(const std::string&)>& drawPicture,
+                       const std::function<nlohmann::json()>& makeReport) {
+  StagedOutputs staged;
+  if (vm.count("output")) drawPicture(staged.stage(vm["output"].as<std::string>()));
+  if (vm.count("report"))
+    staged.stageText(vm["report"].as<std::string>(), reportText(makeReport()));
+  if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
+  staged.commit();
+  std::cout << table;
+  if (!outputs.empty()) info("wrote " + join(outputs, ", "));
+}
+
 }  // namespace diffreg

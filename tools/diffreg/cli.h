@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -60,9 +61,6 @@ inline const std::vector<std::string> kPictureExtensions = {"png"};
 /// them (lower case, without the dot). \throw IoError naming `path`.
 void checkOutputTarget(const std::string& path, const std::vector<std::string>& extensions = {});
 
-/// Files written under temporary names beside their targets (same extension, so writers that
-/// pick a format by it still do), renamed into place together by commit(). Whatever was not
-/// committed is removed, so a failed run leaves no new or clobbered file.
 /// Prints a long filter's iterations on stderr (unless quiet): nothing during the first
 /// `after` seconds of the run, then at most one line a second, "diffreg: FILTER: iteration N,
 /// energy E".
@@ -77,6 +75,9 @@ class ProgressPrinter {
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
+/// Files written under temporary names beside their targets (same extension, so writers that
+/// pick a format by it still do), renamed into place together by commit(). Whatever was not
+/// committed is removed, so a failed run leaves no new or clobbered file.
 class StagedOutputs {
  public:
   StagedOutputs() = default;
@@ -99,5 +100,20 @@ class StagedOutputs {
   };
   std::vector<Entry> staged_;
 };
+
+/// The outputs of a table command (compare, resolution) in `vm`: -o (a picture), --report and
+/// --markdown, each checked by checkOutputTarget before any work starts.
+/// \throw UsageError "COMMAND: output 'PATH' given twice" for two spellings of one file.
+std::vector<std::string> checkTableOutputs(const boost::program_options::variables_map& vm,
+                                           const std::string& command);
+
+/// Writes a table command's outputs all or nothing: the picture by `drawPicture` (given the
+/// temporary path) with -o, the report `makeReport` builds with --report, `table` with
+/// --markdown. Then prints `table` on stdout and names the files written (`outputs`, from
+/// checkTableOutputs). The picture and report are only made when asked for.
+void writeTableOutputs(const boost::program_options::variables_map& vm,
+                       const std::vector<std::string>& outputs, const std::string& table,
+                       const std::function<void(const std::string&)>& drawPicture,
+                       const std::function<nlohmann::json()>& makeReport);
 
 }  // namespace diffreg

@@ -123,9 +123,8 @@ Image comparePicture(const Document& rest, const Document& weighted,
   return composeGrid(panels, panels.size() <= 4 ? 2 : 3);
 }
 
-}  // namespace
-
-int runCompare(int argc, char** argv) {
+/// The options --help lists, in its order.
+po::options_description compareOptions() {
   po::options_description visible("Options");
   visible.add_options()                                                                //
       ("help,h", "show this help")                                                     //
@@ -144,36 +143,40 @@ int runCompare(int argc, char** argv) {
       ("size", po::value<std::string>()->default_value("560x380"),
        "size of one panel of the picture, WxH pixels")  //
       ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
-  po::variables_map vm;
-  if (!parseCommandLine(argc, argv, kCompareUsage, visible, vm)) return 0;
+  return visible;
+}
+
+/// The command line, checked before the mesh is read (all but --rbf, which is checked when
+/// its variant is made, after the weights).
+struct CompareSettings {
+  int width = 0, height = 0;
+  Step weights, deform;
+  std::vector<std::string> outputs;
+};
+
+/// \throw UsageError for a missing option, a filter that does not fit its option or an output
+/// given twice.
+CompareSettings compareSettings(const po::variables_map& vm) {
   requireOption(vm, "input", "compare", "-i MESH");
   requireOption(vm, "handles", "compare", "--handles H.json");
-  int width = 0, height = 0;
-  parseSize("compare", vm["size"].as<std::string>(), width, height);
-  const Step weightsStep = parseStep(vm["weights"].as<std::string>(), "--weights");
-  Step deformStep = parseStep(vm["deform"].as<std::string>(), "--deform");
-  if (deformStep.filter != "deform")
-    throw UsageError("compare: --deform must name the deform filter, not '" + deformStep.filter +
+  CompareSettings s;
+  parseSize("compare", vm["size"].as<std::string>(), s.width, s.height);
+  s.weights = parseStep(vm["weights"].as<std::string>(), "--weights");
+  s.deform = parseStep(vm["deform"].as<std::string>(), "--deform");
+  if (s.deform.filter != "deform")
+    throw UsageError("compare: --deform must name the deform filter, not '" + s.deform.filter +
                      "'");
   for (const char* key : {"regularization", "beta"})
-    if (deformStep.values.count(key))
+    if (s.deform.values.count(key))
       throw UsageError(std::string("compare: --deform must not set '") + key +
                        "': each variant sets it (use --beta for the uniform one)");
-  std::vector<std::string> outputs;
-  for (const char* key : {"output", "report", "markdown"})
-    if (vm.count(key)) {
-      const std::string path = vm[key].as<std::string>();
-      for (const auto& other : outputs)
-        if (canonicalTarget(other) == canonicalTarget(path))
-          throw UsageError("compare: output '" + path + "' given twice");
-      outputs.push_back(path);
-      checkOutputTarget(path, key == std::string("output") ? kPictureExtensions
-                                                           : std::vector<std::string>{});
-    }
+  s.outputs = checkTableOutputs(vm, "compare");
+  return s;
+}
 
-  const Document doc = Document::load(vm["input"].as<std::string>(), vm["handles"].as<std::string>());
-
-  // The weights once, for the peak and the picture.
+/// The rest shape with the weights of `weightsStep`, computed once for the peak and the
+/// picture. \throw UsageError when the filter makes no weights.
+Document weightedRest(const Document& doc, const Step& weightsStep) {
   Document weighted = doc;
   Pipeline weightsOnly;
   weightsOnly.add(weightsStep.filter, weightsStep.values);
@@ -181,13 +184,23 @@ int runCompare(int argc, char** argv) {
   if (!weighted.mesh.hasVertexScalar(prop::weight))
     throw UsageError("compare: --weights filter '" + weightsStep.filter + "' produces no " +
                      prop::weight);
+  return weighted;
+}
+
+/// The largest weight at a vertex the elements of the rest shape `doc` use.
+double peakWeight(const Document& weighted, const Document& doc) {
   const Eigen::VectorXd w = weighted.mesh.vertexScalar(prop::weight);
   const std::vector<bool> used = doc.mesh.referenced();
   double peak = 0.0;
   for (int i = 0; i < w.size(); ++i)
     if (used[i]) peak = std::max(peak, w[i]);
-  const double beta = vm.count("beta") ? vm["beta"].as<double>() : std::min(peak, 1.0);
+  return peak;
+}
 
+/// The columns: no, uniform (with `beta`) and non-uniform regularization, and with --rbf the
+/// RBF weights. \throw UsageError for an unknown --rbf filter.
+std::vector<Variant> compareVariants(const po::variables_map& vm, const Step& weightsStep,
+                                     double beta) {
   std::vector<Variant> variants(3);
   variants[0].name = "none";
   variants[0].title = "no regularization";
@@ -208,7 +221,11 @@ int runCompare(int argc, char** argv) {
     rbf.regularization = "nonuniform";
     variants.push_back(rbf);
   }
+  return variants;
+}
 
+/// Runs every variant on `doc`: its weights, deform with its regularization, measure.
+void runVariants(std::vector<Variant>& variants, const Document& doc, const Step& deformStep) {
   ProgressPrinter printer(1.0);
   for (Variant& v : variants) {
     info("compare: " + v.name);
@@ -226,27 +243,42 @@ int runCompare(int argc, char** argv) {
     };
     v.report = p.run(v.result);
   }
+}
 
-  const std::string table = markdownTable(variants);
-  StagedOutputs staged;
-  if (vm.count("output"))
-    writePng(staged.stage(vm["output"].as<std::string>()),
-             comparePicture(doc, weighted, variants, width, height));
-  if (vm.count("report")) {
-    nlohmann::json report;
-    report["mesh"] = variants[0].report["mesh"];
-    report["beta"] = beta;
-    report["peak_weight"] = peak;
-    for (const Variant& v : variants)
-      report["variants"].push_back({{"name", v.name},
-                                    {"metrics", v.report["filters"][v.weights.size() + 1]["metrics"]},
-                                    {"filters", v.report["filters"]}});
-    staged.stageText(vm["report"].as<std::string>(), reportText(report));
-  }
-  if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
-  staged.commit();
-  std::cout << table;
-  if (!outputs.empty()) info("wrote " + join(outputs, ", "));
+/// The --report document: beta, the peak weight and every variant's metrics and filters.
+nlohmann::json compareReport(const std::vector<Variant>& variants, double beta, double peak) {
+  nlohmann::json report;
+  report["mesh"] = variants[0].report["mesh"];
+  report["beta"] = beta;
+  report["peak_weight"] = peak;
+  for (const Variant& v : variants)
+    report["variants"].push_back({{"name", v.name},
+                                  {"metrics", v.report["filters"][v.weights.size() + 1]["metrics"]},
+                                  {"filters", v.report["filters"]}});
+  return report;
+}
+
+}  // namespace
+
+int runCompare(int argc, char** argv) {
+  po::variables_map vm;
+  if (!parseCommandLine(argc, argv, kCompareUsage, compareOptions(), vm)) return 0;
+  const CompareSettings s = compareSettings(vm);
+
+  const Document doc =
+      Document::load(vm["input"].as<std::string>(), vm["handles"].as<std::string>());
+  const Document weighted = weightedRest(doc, s.weights);
+  const double peak = peakWeight(weighted, doc);
+  const double beta = vm.count("beta") ? vm["beta"].as<double>() : std::min(peak, 1.0);
+  std::vector<Variant> variants = compareVariants(vm, s.weights, beta);
+  runVariants(variants, doc, s.deform);
+
+  writeTableOutputs(
+      vm, s.outputs, markdownTable(variants),
+      [&](const std::string& path) {
+        writePng(path, comparePicture(doc, weighted, variants, s.width, s.height));
+      },
+      [&] { return compareReport(variants, beta, peak); });
   return 0;
 }
 

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -136,9 +137,18 @@ Image resolutionPicture(const std::vector<Cell>& cells, const std::vector<Docume
   return composeGrid(panels, static_cast<int>(levels.size()));
 }
 
-}  // namespace
+/// The command line, checked before any mesh is read.
+struct ResolutionSettings {
+  std::string input, handles, scheme;
+  int levels = 2;
+  double t = 0.01;              ///< squared level-0 bounding-box diagonals
+  int width = 520, height = 0;  ///< height 0: as high as the shape needs
+  std::optional<int> probe;     ///< --probe, checked against the mesh once it is read
+  std::vector<std::string> outputs;
+};
 
-int runResolution(int argc, char** argv) {
+/// The options --help lists, in its order.
+po::options_description resolutionOptions() {
   po::options_description visible("Options");
   visible.add_options()                                                                     //
       ("help,h", "show this help")                                                          //
@@ -157,64 +167,60 @@ int runResolution(int argc, char** argv) {
        "size of one panel of the picture, WxH pixels; auto: 520 wide, as high as the shape "
        "needs")  //
       ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
-  po::variables_map vm;
-  if (!parseCommandLine(argc, argv, kResolutionUsage, visible, vm)) return 0;
+  return visible;
+}
+
+/// \throw UsageError for a missing or out-of-range option or an output given twice.
+ResolutionSettings resolutionSettings(const po::variables_map& vm) {
   requireOption(vm, "input", "resolution", "-i MESH");
   requireOption(vm, "handles", "resolution", "--handles H.json");
-  const int levelCount = vm["levels"].as<int>();
-  if (levelCount < 0 || levelCount > 4)
-    throw UsageError("resolution: --levels " + std::to_string(levelCount) +
+  ResolutionSettings s;
+  s.input = vm["input"].as<std::string>();
+  s.handles = vm["handles"].as<std::string>();
+  s.levels = vm["levels"].as<int>();
+  if (s.levels < 0 || s.levels > 4)
+    throw UsageError("resolution: --levels " + std::to_string(s.levels) +
                      " is out of range 0..4 (each level has 4x the triangles)");
-  const double t = vm["t"].as<double>();
-  if (!std::isfinite(t) || t <= 0.0)
-    throw UsageError("resolution: --t " + formatNumber(t) + " must be positive");
-  const std::string scheme = vm["scheme"].as<std::string>();
-  if (scheme != "midpoint" && scheme != "loop")
-    throw UsageError("resolution: --scheme '" + scheme + "' is not one of midpoint, loop");
-  int width = 520, height = 0;  // auto: the height from the shape
+  s.t = vm["t"].as<double>();
+  if (!std::isfinite(s.t) || s.t <= 0.0)
+    throw UsageError("resolution: --t " + formatNumber(s.t) + " must be positive");
+  s.scheme = vm["scheme"].as<std::string>();
+  if (s.scheme != "midpoint" && s.scheme != "loop")
+    throw UsageError("resolution: --scheme '" + s.scheme + "' is not one of midpoint, loop");
   if (vm["size"].as<std::string>() != "auto")
-    parseSize("resolution", vm["size"].as<std::string>(), width, height);
-  std::vector<std::string> outputs;
-  for (const char* key : {"output", "report", "markdown"})
-    if (vm.count(key)) {
-      const std::string path = vm[key].as<std::string>();
-      for (const auto& other : outputs)
-        if (canonicalTarget(other) == canonicalTarget(path))
-          throw UsageError("resolution: output '" + path + "' given twice");
-      outputs.push_back(path);
-      checkOutputTarget(path, key == std::string("output") ? kPictureExtensions
-                                                           : std::vector<std::string>{});
-    }
+    parseSize("resolution", vm["size"].as<std::string>(), s.width, s.height);
+  s.outputs = checkTableOutputs(vm, "resolution");
+  if (vm.count("probe")) s.probe = vm["probe"].as<int>();
+  return s;
+}
 
-  const std::string input = vm["input"].as<std::string>();
-  std::vector<Document> levels;
-  levels.reserve(levelCount + 1);  // `base` stays valid while the finer levels are added
-  levels.push_back(Document::load(input, vm["handles"].as<std::string>()));
-  const Document& base = levels[0];
+/// The original vertices outside every handle: where the weights are compared.
+/// \throw InvalidParameter for a tet mesh, no handle or no such vertex; UsageError for a
+/// --probe that is not a vertex.
+std::vector<int> comparedVertices(const Document& base, const ResolutionSettings& s) {
   if (base.mesh.isTet())
-    throw InvalidParameter("resolution: '" + input +
+    throw InvalidParameter("resolution: '" + s.input +
                            "' is a tet mesh; subdivision applies to planar and surface meshes");
   if (base.handles.handles.empty())
-    throw InvalidParameter("resolution: the handle file '" + vm["handles"].as<std::string>() +
-                           "' defines no handle");
+    throw InvalidParameter("resolution: the handle file '" + s.handles + "' defines no handle");
   const int n0 = base.mesh.numVertices();
   const std::vector<bool> used = base.mesh.referenced();
   const std::vector<int> owner = base.handles.handleOfVertex(n0);
-  std::vector<int> free;  // original vertices outside every handle
+  std::vector<int> free;
   for (int v = 0; v < n0; ++v)
     if (used[v] && owner[v] < 0) free.push_back(v);
   if (free.empty())
-    throw InvalidParameter("resolution: every vertex of '" + input +
+    throw InvalidParameter("resolution: every vertex of '" + s.input +
                            "' is a handle vertex; there are no weights to compare");
-  int probe = -1;
-  if (vm.count("probe")) {
-    probe = vm["probe"].as<int>();
-    if (probe < 0 || probe >= n0 || !used[probe])
-      throw UsageError("resolution: --probe " + std::to_string(probe) +
-                       " is not a vertex of the mesh (0.." + std::to_string(n0 - 1) + ")");
-  }
+  if (s.probe && (*s.probe < 0 || *s.probe >= n0 || !used[*s.probe]))
+    throw UsageError("resolution: --probe " + std::to_string(*s.probe) +
+                     " is not a vertex of the mesh (0.." + std::to_string(n0 - 1) + ")");
+  return free;
+}
 
-  for (int level = 1; level <= levelCount; ++level) {
+/// Appends `count` refinements of the last level, each by the subdivide filter.
+void addLevels(std::vector<Document>& levels, int count, const std::string& scheme) {
+  for (int level = 1; level <= count; ++level) {
     info("resolution: subdividing, level " + std::to_string(level));
     Document next = levels.back();
     Pipeline p;
@@ -222,22 +228,34 @@ int runResolution(int argc, char** argv) {
     p.run(next);
     levels.push_back(std::move(next));
   }
+}
 
-  // One physical t on level 0 for all units: --t is in squared diagonals there.
+/// The level-0 scales that convert --t into every unit.
+struct LevelZeroScale {
+  double tAbsolute = 0.0;  ///< --t in length^2
+  double meanEdge = 0.0;   ///< the mean edge length of level 0
+};
+
+/// One physical t on level 0 for all units: --t is in squared diagonals there.
+LevelZeroScale levelZeroScale(const Document& base, double t) {
   const Discretization disc0(base.mesh.kind(), base.rest, base.mesh.elements());
   const double diagonal2 = disc0.boundingBoxDiagonal() * disc0.boundingBoxDiagonal();
-  const double edge0 = disc0.meanEdgeLength();
-  const double tAbsolute = t * diagonal2;
+  return {t * diagonal2, disc0.meanEdgeLength()};
+}
+
+/// The diffused weights of every unit on every level, unit by unit (level 0 first in each).
+std::vector<Cell> weightCells(const std::vector<Document>& levels, double t,
+                              const LevelZeroScale& scale) {
   std::vector<Cell> cells;
   for (const char* unit : kUnits) {
-    for (int level = 0; level <= levelCount; ++level) {
+    for (int level = 0; level < static_cast<int>(levels.size()); ++level) {
       info(std::string("resolution: weights, t_unit ") + unit + ", level " + std::to_string(level));
       Cell c;
       c.unit = unit;
       c.level = level;
-      c.t = c.unit == "absolute"   ? tAbsolute
+      c.t = c.unit == "absolute"   ? scale.tAbsolute
             : c.unit == "diagonal" ? t
-                                   : tAbsolute / (edge0 * edge0);
+                                   : scale.tAbsolute / (scale.meanEdge * scale.meanEdge);
       Document d = levels[level];
       Pipeline p;
       p.add("diffuse_weights", {{"t", formatNumber(c.t)}, {"t_unit", unit}});
@@ -247,21 +265,30 @@ int runResolution(int argc, char** argv) {
       cells.push_back(std::move(c));
     }
   }
+  return cells;
+}
 
-  // The probe: the free original vertex whose level-0 weight is nearest half the peak.
-  const Eigen::VectorXd& w0 = cells[0].weights;
-  if (probe < 0) {
-    double peak = 0.0;
-    for (int v : free) peak = std::max(peak, w0[v]);
-    double best = std::numeric_limits<double>::infinity();
-    for (int v : free)
-      if (std::abs(w0[v] - 0.5 * peak) < best) {
-        best = std::abs(w0[v] - 0.5 * peak);
-        probe = v;
-      }
-  }
+/// The free original vertex whose level-0 weight `w0` is nearest half the peak.
+int defaultProbe(const Eigen::VectorXd& w0, const std::vector<int>& free) {
+  int probe = -1;
+  double peak = 0.0;
+  for (int v : free) peak = std::max(peak, w0[v]);
+  double best = std::numeric_limits<double>::infinity();
+  for (int v : free)
+    if (std::abs(w0[v] - 0.5 * peak) < best) {
+      best = std::abs(w0[v] - 0.5 * peak);
+      probe = v;
+    }
+  return probe;
+}
+
+/// Fills every cell's changes against level 0 of its unit, its mean and its probe weight at
+/// the `free` vertices. Returns the top of the picture's scale: the largest handle magnitude
+/// or weight. \throw SingularSystem for non-finite weights.
+double compareLevels(std::vector<Cell>& cells, const std::vector<int>& free, int probe,
+                     const HandleSet& handles) {
   double top = 0.0;
-  for (const Handle& h : base.handles.handles) top = std::max(top, h.magnitude);
+  for (const Handle& h : handles.handles) top = std::max(top, h.magnitude);
   for (std::size_t k = 0; k < cells.size(); ++k) {
     Cell& c = cells[k];
     const Eigen::VectorXd& ref = cells[k - c.level].weights;  // the same unit on level 0
@@ -281,49 +308,71 @@ int runResolution(int argc, char** argv) {
                              " on level " + std::to_string(c.level));
     top = std::max(top, c.weights.maxCoeff());
   }
+  return top;
+}
 
-  const std::string table = markdownTable(cells, levels, probe);
-  StagedOutputs staged;
-  if (vm.count("output"))
-    writePng(staged.stage(vm["output"].as<std::string>()),
-             resolutionPicture(cells, levels, top, width, height));
-  if (vm.count("report")) {
-    nlohmann::json report;
-    report["mesh"] = input;
-    report["scheme"] = scheme;
-    report["t"] = t;
-    report["t_unit"] = "diagonal";
-    report["t_absolute_level0"] = tAbsolute;
-    report["mean_edge_level0"] = edge0;
-    report["probe"] = probe;
-    report["compared_vertices"] = free.size();
-    for (const Document& d : levels) {
-      int handleVertices = 0;
-      for (const Handle& h : d.handles.handles)
-        handleVertices += static_cast<int>(h.vertices.size());
-      report["levels"].push_back({{"vertices", d.mesh.numVertices()},
-                                  {"elements", d.mesh.numElements()},
-                                  {"handle_vertices", handleVertices}});
-    }
-    for (const char* unit : kUnits) {
-      nlohmann::json rows = nlohmann::json::array();
-      for (const Cell& c : cells)
-        if (c.unit == unit)
-          rows.push_back({{"level", c.level},
-                          {"t", c.t},
-                          {"t_absolute", c.tAbsolute},
-                          {"max_change", c.maxChange},
-                          {"mean_change", c.meanChange},
-                          {"mean", c.mean},
-                          {"probe", c.probe}});
-      report["units"][unit] = rows;
-    }
-    staged.stageText(vm["report"].as<std::string>(), reportText(report));
+/// The --report document: the settings, every level's size and every unit's rows.
+nlohmann::json resolutionReport(const ResolutionSettings& s, const LevelZeroScale& scale,
+                                int probe, std::size_t compared,
+                                const std::vector<Document>& levels,
+                                const std::vector<Cell>& cells) {
+  nlohmann::json report;
+  report["mesh"] = s.input;
+  report["scheme"] = s.scheme;
+  report["t"] = s.t;
+  report["t_unit"] = "diagonal";
+  report["t_absolute_level0"] = scale.tAbsolute;
+  report["mean_edge_level0"] = scale.meanEdge;
+  report["probe"] = probe;
+  report["compared_vertices"] = compared;
+  for (const Document& d : levels) {
+    int handleVertices = 0;
+    for (const Handle& h : d.handles.handles)
+      handleVertices += static_cast<int>(h.vertices.size());
+    report["levels"].push_back({{"vertices", d.mesh.numVertices()},
+                                {"elements", d.mesh.numElements()},
+                                {"handle_vertices", handleVertices}});
   }
-  if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
-  staged.commit();
-  std::cout << table;
-  if (!outputs.empty()) info("wrote " + join(outputs, ", "));
+  for (const char* unit : kUnits) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (const Cell& c : cells)
+      if (c.unit == unit)
+        rows.push_back({{"level", c.level},
+                        {"t", c.t},
+                        {"t_absolute", c.tAbsolute},
+                        {"max_change", c.maxChange},
+                        {"mean_change", c.meanChange},
+                        {"mean", c.mean},
+                        {"probe", c.probe}});
+    report["units"][unit] = rows;
+  }
+  return report;
+}
+
+}  // namespace
+
+int runResolution(int argc, char** argv) {
+  po::variables_map vm;
+  if (!parseCommandLine(argc, argv, kResolutionUsage, resolutionOptions(), vm)) return 0;
+  const ResolutionSettings s = resolutionSettings(vm);
+
+  std::vector<Document> levels;
+  levels.reserve(s.levels + 1);
+  levels.push_back(Document::load(s.input, s.handles));
+  const std::vector<int> free = comparedVertices(levels[0], s);
+  addLevels(levels, s.levels, s.scheme);
+
+  const LevelZeroScale scale = levelZeroScale(levels[0], s.t);
+  std::vector<Cell> cells = weightCells(levels, s.t, scale);
+  const int probe = s.probe ? *s.probe : defaultProbe(cells[0].weights, free);
+  const double top = compareLevels(cells, free, probe, levels[0].handles);
+
+  writeTableOutputs(
+      vm, s.outputs, markdownTable(cells, levels, probe),
+      [&](const std::string& path) {
+        writePng(path, resolutionPicture(cells, levels, top, s.width, s.height));
+      },
+      [&] { return resolutionReport(s, scale, probe, free.size(), levels, cells); });
   return 0;
 }
 
