@@ -2,7 +2,7 @@
 // plugins.cpp calls them all; Registry::builtin() is defined there.
 #pragma once
 
-#include "pipeline/filter.h"
+#include <diffreg/pipeline/filter.h>
 
 namespace diffreg {
 

@@ -1,7 +1,7 @@
 // The diffreg tool end to end: outputs on success, and on every bad input a non-zero exit,
 // exactly one stderr line naming the culprit, and no output file.
-#include "mesh/io.h"
-#include "mesh/shapes.h"
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>

@@ -1,6 +1,6 @@
 // diffreg compare: the paper's comparison on a shipped scenario, its outputs and its errors.
 #include "cli_fixture.h"
-#include "render/image.h"
+#include <diffreg/render/image.h>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>

@@ -2,7 +2,7 @@
 // and measure chained on the command line, with the report's metrics and the outputs checked;
 // and the deformation's errors as one line with no output.
 #include "cli_fixture.h"
-#include "mesh/io.h"
+#include <diffreg/mesh/io.h>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>

@@ -2,9 +2,9 @@
 // `diffreg filters --mlx` writes a script the tool reads back, and a bad script is one line
 // naming the file with nothing written.
 #include "cli_fixture.h"
-#include "mesh/io.h"
-#include "pipeline/document.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/mesh/io.h>
+#include <diffreg/pipeline/document.h>
+#include <diffreg/pipeline/pipeline.h>
 
 #include <catch2/catch.hpp>
 

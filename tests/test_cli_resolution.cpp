@@ -1,7 +1,7 @@
 // diffreg resolution: the paper's resolution experiment (Fig. 9; docs/method.md, "Diffused weights"
 // "Units of t") on a shipped scenario, its picture and its errors.
 #include "cli_fixture.h"
-#include "render/image.h"
+#include <diffreg/render/image.h>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>

@@ -1,7 +1,7 @@
 // StagedOutputs (tools/diffreg/cli.h): outputs appear together or not at all, and a failure in
 // the middle of the commit gives the targets already renamed their old content back.
 #include "cli.h"
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include "test_support.h"
 

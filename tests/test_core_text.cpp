@@ -1,5 +1,5 @@
 // escapeNonUtf8 (modules/core/text.h): any byte string becomes valid UTF-8, reversibly.
-#include "core/text.h"
+#include <diffreg/core/text.h>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>

@@ -1,7 +1,7 @@
 // The XML reading behind .mlx scripts and .pp picked points (pugixml): the subset MeshLab writes is
 // read faithfully, and every malformed input is one line naming the source and the line.
-#include "core/error.h"
-#include "core/xml.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/xml.h>
 
 #include <catch2/catch.hpp>
 

@@ -4,9 +4,9 @@
 // earlier behaviour; scaling the input changes nothing but the scale.
 #include "test_deformation_fixtures.h"
 
-#include "core/error.h"
-#include "deformation/deformer.h"
-#include "deformation/local_step.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/local_step.h>
 
 #include <catch2/catch.hpp>
 

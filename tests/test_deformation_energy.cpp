@@ -1,10 +1,10 @@
 // Included first: it silences a GCC false positive in OpenMesh before any system header.
 #include "test_deformation_fixtures.h"
 
-#include "deformation/energy.h"
-#include "deformation/residual_model.h"
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/residual_model.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <catch2/catch.hpp>
 

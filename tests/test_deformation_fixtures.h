@@ -1,12 +1,12 @@
 // Small meshes and handle sets shared by the deformation tests.
 #pragma once
 
-#include "deformation/deformer.h"
-#include "deformation/energy.h"
-#include "deformation/residual_model.h"
-#include "deformation/metrics.h"
-#include "discretization/discretization.h"
-#include "mesh/shapes.h"
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/residual_model.h>
+#include <diffreg/deformation/metrics.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <Eigen/Geometry>
 #include <cmath>

@@ -1,9 +1,9 @@
 // Included first: it silences a GCC false positive in OpenMesh before any system header.
 #include "test_deformation_fixtures.h"
 
-#include "deformation/metrics.h"
+#include <diffreg/deformation/metrics.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <catch2/catch.hpp>
 

@@ -2,8 +2,8 @@
 // performance options (reserved couplings, progress callback) change no result.
 #include "test_deformation_fixtures.h"
 
-#include "core/error.h"
-#include "deformation/rotation.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/rotation.h>
 
 #include <catch2/catch.hpp>
 #include <random>

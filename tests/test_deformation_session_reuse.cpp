@@ -4,7 +4,7 @@
 // Included first: it silences a GCC false positive in OpenMesh before any system header.
 #include "test_deformation_fixtures.h"
 
-#include "deformation/deformer.h"
+#include <diffreg/deformation/deformer.h>
 
 #include <catch2/catch.hpp>
 

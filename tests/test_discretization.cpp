@@ -1,9 +1,9 @@
 // Discretization (docs/method.md, "Discretization"): properties of K, M, G_e, a_e and the facet
 // adjacency.
-#include "discretization/discretization.h"
+#include <diffreg/discretization/discretization.h>
 
-#include "core/error.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>

@@ -1,10 +1,10 @@
 // The deform filter in a pipeline: it agrees with the library's session, solves from the rest
 // shape, reproduces the paper's Table-1 pattern on the shipped scenarios with diffused weights,
 // and rejects bad input before any work.
-#include "core/error.h"
-#include "deformation/deformer.h"
-#include "discretization/discretization.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
 
 #include "test_support.h"

@@ -1,9 +1,9 @@
 // The measure filter: Dist against the unregularized solve or a reference file, the energy
 // of the deform filter, a rest mesh for already-deformed input, and its errors.
-#include "core/error.h"
-#include "deformation/metrics.h"
-#include "mesh/io.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/metrics.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
 
 #include "test_support.h"

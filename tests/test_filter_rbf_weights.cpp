@@ -2,11 +2,11 @@
 // the paper's argument against it (two nearby handles: RBF weights between them exceed the handle
 // values, diffused weights obey the maximum principle; paper §3.2.2, Fig. 10), tet meshes and
 // errors.
-#include "core/error.h"
-#include "mesh/shapes.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
-#include "weights/rbf.h"
+#include <diffreg/weights/rbf.h>
 
 #include "test_support.h"
 

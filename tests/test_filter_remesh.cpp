@@ -2,10 +2,10 @@
 // rest positions, handles), the paper's robustness experiments through a pipeline
 // (triangulation, Fig. 8; resolution, Fig. 9 and docs/method.md, "Diffused weights" "Units of t"),
 // and their errors.
-#include "core/error.h"
-#include "mesh/remesh.h"
-#include "mesh/shapes.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/remesh.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
 
 #include "test_support.h"

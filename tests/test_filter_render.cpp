@@ -2,11 +2,11 @@
 // scale, handles marked; tet meshes by their boundary; the document is left untouched; the
 // file is written atomically, relative to the working directory, and every failure is one
 // clear error with no file left behind.
-#include "core/colormap.h"
-#include "core/error.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/core/colormap.h>
+#include <diffreg/core/error.h>
+#include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
-#include "render/render.h"
+#include <diffreg/render/render.h>
 
 #include "test_support.h"
 

@@ -1,8 +1,8 @@
 // Handle files: selections, motions, errors and the JSON round trip (modules/handles).
 
-#include "core/error.h"
-#include "handles/handles.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
 

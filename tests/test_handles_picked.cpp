@@ -1,7 +1,7 @@
 // Handles from MeshLab PickedPoints (.pp) files: the nearest vertex of each active point, named
 // points, one handle per point, paths relative to the handle file, and one-line errors.
-#include "core/error.h"
-#include "handles/handles.h"
+#include <diffreg/core/error.h>
+#include <diffreg/handles/handles.h>
 
 #include <catch2/catch.hpp>
 

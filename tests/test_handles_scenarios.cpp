@@ -1,9 +1,9 @@
 // The shipped meshes (meshes/) are the generator's output, and every shipped scenario parses
 // against its mesh and selects the vertices its README entry describes.
-#include "core/error.h"
-#include "handles/handles.h"
-#include "mesh/io.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
 

@@ -2,10 +2,10 @@
 // numbers beyond double, endless and special files, truncation, awkward polygons; and the
 // double precision of every reader and writer.
 
-#include "core/error.h"
-#include "core/file.h"
-#include "mesh/io.h"
-#include "mesh/parse.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/parse.h>
 
 #include "hostile_support.h"
 #include "test_support.h"

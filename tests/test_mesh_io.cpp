@@ -1,8 +1,8 @@
 // Reading, validating and writing meshes (modules/mesh/io.h).
 
-#include "core/colormap.h"
-#include "core/error.h"
-#include "mesh/io.h"
+#include <diffreg/core/colormap.h>
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/io.h>
 
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/IO/MeshIO.hh>

@@ -3,12 +3,12 @@
 // byte changed, the inputs that stopped OpenMesh's own reader on an assertion) end in an
 // InvalidMesh naming the file, never in a crash.
 
-#include "core/error.h"
-#include "core/log.h"
-#include "mesh/io.h"
-#include "mesh/om.h"
-#include "mesh/parse.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/om.h>
+#include <diffreg/mesh/parse.h>
+#include <diffreg/mesh/shapes.h>
 
 #include "test_support.h"
 

@@ -1,7 +1,7 @@
 // Mesh: kinds, positions, elements and named scalar properties (modules/mesh/mesh.h).
 
-#include "core/error.h"
-#include "mesh/mesh.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/mesh.h>
 
 #include <catch2/catch.hpp>
 

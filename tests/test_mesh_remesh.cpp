@@ -1,7 +1,7 @@
 // Mesh edits for the paper's experiments: random edge flips (Fig. 8) and subdivision (Fig. 9).
-#include "core/error.h"
-#include "mesh/remesh.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/remesh.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
 

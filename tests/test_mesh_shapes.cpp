@@ -1,7 +1,7 @@
 // Generated shapes: counts, exact measures, orientation, manifoldness, Euler characteristic,
 // angle bounds and argument checking.
-#include "core/error.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
 

@@ -1,10 +1,10 @@
 // MeshLab FilterScripts: every registered filter with its defaults round-trips through the
 // .mlx writer and reader; MeshLab's own way of writing (attribute order, enum indices, comments)
 // is read; every bad script is one line naming the file, the line and the valid choices.
-#include "pipeline/mlx.h"
+#include <diffreg/pipeline/mlx.h>
 
-#include "core/error.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/shapes.h>
 #include "plugins.h"
 
 #include <catch2/catch.hpp>

@@ -1,8 +1,8 @@
 // Parameter tables, ParamMap validation and canonical text, filter specs and the Registry.
-#include "pipeline/filter.h"
-#include "pipeline/params.h"
+#include <diffreg/pipeline/filter.h>
+#include <diffreg/pipeline/params.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <catch2/catch.hpp>
 

@@ -1,13 +1,13 @@
 // Pipeline: checks before any work (filters, parameters, handles, properties), the report, and
 // the built-in diffuse_weights filter agreeing with the library's one-shot function.
-#include "pipeline/pipeline.h"
+#include <diffreg/pipeline/pipeline.h>
 
-#include "core/error.h"
-#include "discretization/discretization.h"
-#include "mesh/io.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/shapes.h>
 #include "plugins.h"
-#include "weights/diffusion.h"
+#include <diffreg/weights/diffusion.h>
 
 #include <catch2/catch.hpp>
 

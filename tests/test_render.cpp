@@ -1,10 +1,10 @@
 // The software renderer: PNG files, colours at known pixels, the colour bar, handle markers
 // (including occlusion), tet boundaries, shared framing, the bitmap font and error cases.
 
-#include "core/colormap.h"
-#include "core/error.h"
-#include "mesh/shapes.h"
-#include "render/render.h"
+#include <diffreg/core/colormap.h>
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/render/render.h>
 
 #include "test_support.h"
 

@@ -1,10 +1,10 @@
 // The JSON API of `diffreg serve` over HTTP, against a server started in this process on a
 // free loopback port: handles, drags and parameter changes reuse the factorizations as the
 // paper's Fig. 5 says, bad requests get their 4xx and leave the session unchanged.
-#include "core/error.h"
-#include "mesh/io.h"
-#include "serve/api.h"
-#include "serve/server.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/serve/api.h>
+#include <diffreg/serve/server.h>
 
 #include <httplib.h>
 #include <catch2/catch.hpp>

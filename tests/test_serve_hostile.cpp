@@ -1,10 +1,10 @@
 // diffreg serve against hostile clients: foreign Host (DNS rebinding) and Origin, writes that
 // are not JSON, picked-points files that are devices or missing, stalled connections, file
 // names that are not UTF-8.
-#include "core/error.h"
-#include "mesh/io.h"
-#include "serve/api.h"
-#include "serve/server.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/serve/api.h>
+#include <diffreg/serve/server.h>
 
 #include <httplib.h>
 #include <catch2/catch.hpp>

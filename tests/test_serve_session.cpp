@@ -1,9 +1,9 @@
 // The editing session behind `diffreg serve` (no HTTP): each edit costs what the paper's
 // Fig. 5 says and no more, invalid states are refused without a trace, and every mesh kind
 // deforms.
-#include "core/error.h"
-#include "mesh/io.h"
-#include "serve/session.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/serve/session.h>
 
 #include <catch2/catch.hpp>
 

@@ -1,7 +1,7 @@
 // SPD solver: correctness, counters of each phase, Dirichlet elimination, singular systems.
-#include "solver/solver.h"
+#include <diffreg/solver/solver.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <catch2/catch.hpp>
 

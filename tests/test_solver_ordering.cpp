@@ -1,6 +1,6 @@
 // The fill-reducing ordering of large factors: nested dissection replaces AMD when its factor is
 // clearly smaller, and the solution stays as accurate.
-#include "solver/solver.h"
+#include <diffreg/solver/solver.h>
 
 #include <catch2/catch.hpp>
 

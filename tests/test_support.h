@@ -2,9 +2,9 @@
 // scratch directories.
 #pragma once
 
-#include "handles/handles.h"
-#include "mesh/mesh.h"
-#include "pipeline/document.h"
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/mesh.h>
+#include <diffreg/pipeline/document.h>
 
 #include <Eigen/Core>
 #include <catch2/catch.hpp>

@@ -1,9 +1,9 @@
 // Diffused weights (paper §3.2-3.3, docs/method.md, "Diffused weights"): published properties and
 // factorization reuse.
-#include "weights/diffusion.h"
+#include <diffreg/weights/diffusion.h>
 
-#include "core/error.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
 #include <cmath>

@@ -1,11 +1,11 @@
 // The RBF baseline (paper §3.2.2, Fig. 10; docs/method.md, "The RBF baseline") and the heat-method geodesic
 // distances it can use.
-#include "core/error.h"
-#include "discretization/discretization.h"
-#include "mesh/shapes.h"
-#include "weights/diffusion.h"
-#include "weights/geodesic.h"
-#include "weights/rbf.h"
+#include <diffreg/core/error.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/weights/diffusion.h>
+#include <diffreg/weights/geodesic.h>
+#include <diffreg/weights/rbf.h>
 
 #include "test_support.h"
 

@@ -2,11 +2,11 @@
 // of t"; paper Fig. 8 and Fig. 9): with t in length^2 (absolute) or in squared diagonals the
 // weights at the original vertices converge under 1-to-4 subdivision, with t in squared mean edge
 // lengths they shrink; random edge flips change them little.
-#include "discretization/discretization.h"
-#include "handles/handles.h"
-#include "mesh/remesh.h"
-#include "mesh/shapes.h"
-#include "weights/diffusion.h"
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/remesh.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/weights/diffusion.h>
 
 #include <catch2/catch.hpp>
 

@@ -1,11 +1,11 @@
 // The second-order weights solved by preconditioned conjugate gradients (docs/method.md,
 // "Diffused weights"): the same weights as the direct Cholesky of the 2-ring matrix, in a few
 // iterations on every kind of mesh and every t, with the paper's Fig. 5 factorization reuse.
-#include "weights/diffusion.h"
+#include <diffreg/weights/diffusion.h>
 
-#include "core/error.h"
-#include "mesh/io.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
 

@@ -3,6 +3,11 @@
 //   embed MESH HANDLES.json      e.g. embed meshes/bar.obj meshes/bar-bend.json
 #include <diffreg/diffreg.h>
 
+// Every header of the package lives under <diffreg/...>; none is a top-level include.
+#if __has_include(<core/error.h>) || __has_include(<deformation/deformer.h>)
+#error "diffreg's module headers must be reachable only as <diffreg/<module>/...>"
+#endif
+
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 

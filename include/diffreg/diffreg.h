@@ -34,22 +34,22 @@
 
 #include <diffreg/version.h>
 
-#include "core/error.h"
-#include "deformation/deformer.h"
-#include "deformation/energy.h"
-#include "deformation/metrics.h"
-#include "discretization/discretization.h"
-#include "handles/handles.h"
-#include "mesh/io.h"
-#include "mesh/mesh.h"
-#include "mesh/shapes.h"
-#include "pipeline/document.h"
-#include "pipeline/filter.h"
-#include "pipeline/params.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/metrics.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/mesh.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/pipeline/document.h>
+#include <diffreg/pipeline/filter.h>
+#include <diffreg/pipeline/params.h>
+#include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
-#include "solver/solver.h"
-#include "weights/diffusion.h"
-#include "weights/rbf.h"
+#include <diffreg/solver/solver.h>
+#include <diffreg/weights/diffusion.h>
+#include <diffreg/weights/rbf.h>
 
 #include <diffreg/openmesh.h>

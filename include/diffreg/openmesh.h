@@ -14,17 +14,17 @@
 /// A function either completes or throws before it writes anything to the caller's mesh.
 #pragma once
 
-#include "core/error.h"
-#include "deformation/deformer.h"
-#include "deformation/energy.h"
-#include "deformation/metrics.h"
-#include "discretization/discretization.h"
-#include "handles/handles.h"
-#include "mesh/io.h"
-#include "mesh/mesh.h"
-#include "pipeline/document.h"
-#include "pipeline/pipeline.h"
-#include "weights/diffusion.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/metrics.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/mesh.h>
+#include <diffreg/pipeline/document.h>
+#include <diffreg/pipeline/pipeline.h>
+#include <diffreg/weights/diffusion.h>
 
 #include <OpenMesh/Core/Mesh/PolyConnectivity.hh>
 #include <OpenMesh/Core/Utils/Property.hh>

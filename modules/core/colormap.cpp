@@ -1,4 +1,4 @@
-#include "core/colormap.h"
+#include <diffreg/core/colormap.h>
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
-#include "core/file.h"
+#include <diffreg/core/file.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <fcntl.h>
 #include <sys/stat.h>

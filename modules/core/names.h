@@ -9,7 +9,7 @@
 //     };
 #pragma once
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <string>
 #include <type_traits>

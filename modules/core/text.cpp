@@ -1,4 +1,4 @@
-#include "core/text.h"
+#include <diffreg/core/text.h>
 
 #include <cstdio>
 

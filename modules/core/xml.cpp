@@ -1,7 +1,7 @@
-#include "core/xml.h"
+#include <diffreg/core/xml.h>
 
-#include "core/error.h"
-#include "core/file.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
 
 #include <pugixml.hpp>
 

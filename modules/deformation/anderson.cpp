@@ -1,4 +1,4 @@
-#include "deformation/anderson.h"
+#include <diffreg/deformation/anderson.h>
 
 #include <Eigen/Dense>
 #include <cmath>

@@ -1,6 +1,6 @@
-#include "deformation/deformer.h"
+#include <diffreg/deformation/deformer.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <algorithm>
 #include <chrono>

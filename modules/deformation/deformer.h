@@ -5,12 +5,12 @@
 //   setTargets                          -> right-hand side only
 #pragma once
 
-#include "deformation/anderson.h"
-#include "deformation/energy.h"
-#include "deformation/lbfgs.h"
-#include "deformation/local_step.h"
-#include "deformation/system.h"
-#include "solver/solver.h"
+#include <diffreg/deformation/anderson.h>
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/lbfgs.h>
+#include <diffreg/deformation/local_step.h>
+#include <diffreg/deformation/system.h>
+#include <diffreg/solver/solver.h>
 
 #include <functional>
 #include <memory>

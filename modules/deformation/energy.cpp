@@ -1,6 +1,6 @@
-#include "deformation/energy.h"
+#include <diffreg/deformation/energy.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <array>
 #include <string>

@@ -14,8 +14,8 @@
 //    energy does not penalize.
 #pragma once
 
-#include "core/names.h"
-#include "discretization/discretization.h"
+#include <diffreg/core/names.h>
+#include <diffreg/discretization/discretization.h>
 
 #include <Eigen/Core>
 #include <string>

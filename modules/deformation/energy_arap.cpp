@@ -1,7 +1,7 @@
 // ARAP: e_k = F_k - R_k, R_k the closest proper rotation (surfaces: acting on the tangent plane,
 // R_k P_k). Local/global on every kind of mesh; translations are its only free motions.
-#include "deformation/energy.h"
-#include "deformation/rotation.h"
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/rotation.h>
 
 namespace diffreg {
 

@@ -1,8 +1,8 @@
 // ASAP: e_k = F_k - closest similarity. Planar: linear, the residual removes span{I, J} from
 // vec(F) (coupled layout), so 2 distinct handle points pin it. Surfaces and tets: s_k R_k with
 // the rotation of ARAP and the best scale, local/global.
-#include "deformation/energy.h"
-#include "deformation/rotation.h"
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/rotation.h>
 
 namespace diffreg {
 

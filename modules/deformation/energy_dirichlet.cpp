@@ -1,6 +1,6 @@
 // Dirichlet: e_k = F_k - I (surfaces: F_k - P_k). Linear and separable; translations are its
 // only free motions.
-#include "deformation/energy.h"
+#include <diffreg/deformation/energy.h>
 
 namespace diffreg {
 

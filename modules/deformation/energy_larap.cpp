@@ -2,7 +2,7 @@
 // Pi_k the projector onto the infinitesimal rotations {[theta]_x P_k}, the same rule. Linear,
 // coordinates coupled; infinitesimal rotations are free, so 2 (planar) or 3 non-collinear (3D)
 // handle points pin it.
-#include "deformation/energy.h"
+#include <diffreg/deformation/energy.h>
 
 namespace diffreg {
 

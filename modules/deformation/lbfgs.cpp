@@ -1,4 +1,4 @@
-#include "deformation/lbfgs.h"
+#include <diffreg/deformation/lbfgs.h>
 
 #include <vector>
 

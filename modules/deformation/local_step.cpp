@@ -1,7 +1,7 @@
-#include "deformation/local_step.h"
+#include <diffreg/deformation/local_step.h>
 
-#include "core/error.h"
-#include "deformation/parallel.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/parallel.h>
 
 #include <algorithm>
 

@@ -11,9 +11,9 @@
 //    regularizer this is not a minimization in T_k and local/global is not a descent method.
 #pragma once
 
-#include "core/names.h"
-#include "deformation/regularizer.h"
-#include "deformation/residual_model.h"
+#include <diffreg/core/names.h>
+#include <diffreg/deformation/regularizer.h>
+#include <diffreg/deformation/residual_model.h>
 
 #include <string>
 

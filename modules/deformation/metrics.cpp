@@ -1,8 +1,8 @@
-#include "deformation/metrics.h"
+#include <diffreg/deformation/metrics.h>
 
-#include "core/error.h"
-#include "deformation/local_step.h"
-#include "deformation/rotation.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/local_step.h>
+#include <diffreg/deformation/rotation.h>
 
 #include <Eigen/Dense>
 #include <algorithm>

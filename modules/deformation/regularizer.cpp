@@ -1,6 +1,6 @@
-#include "deformation/regularizer.h"
+#include <diffreg/deformation/regularizer.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <string>
 

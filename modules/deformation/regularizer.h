@@ -11,7 +11,7 @@
 // adjacency graph that the exact local step sweeps.
 #pragma once
 
-#include "deformation/energy.h"
+#include <diffreg/deformation/energy.h>
 
 #include <Eigen/Core>
 #include <vector>

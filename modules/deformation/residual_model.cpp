@@ -1,6 +1,6 @@
-#include "deformation/residual_model.h"
+#include <diffreg/deformation/residual_model.h>
 
-#include "deformation/parallel.h"
+#include <diffreg/deformation/parallel.h>
 
 #include <Eigen/Dense>
 #include <cmath>

@@ -3,8 +3,8 @@
 // gradients and the fit of the targets to them, the residuals and the total energy.
 #pragma once
 
-#include "deformation/energy.h"
-#include "deformation/regularizer.h"
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/regularizer.h>
 
 #include <Eigen/Core>
 

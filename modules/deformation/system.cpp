@@ -1,7 +1,7 @@
-#include "deformation/system.h"
+#include <diffreg/deformation/system.h>
 
-#include "core/error.h"
-#include "deformation/parallel.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/parallel.h>
 
 #include <Eigen/Dense>
 #include <algorithm>

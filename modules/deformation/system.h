@@ -17,9 +17,9 @@
 // s, and with beta = 0 the separable matrix is exactly the cotangent stiffness K.
 #pragma once
 
-#include "deformation/regularizer.h"
-#include "deformation/residual_model.h"
-#include "solver/solver.h"
+#include <diffreg/deformation/regularizer.h>
+#include <diffreg/deformation/residual_model.h>
+#include <diffreg/solver/solver.h>
 
 #include <string>
 #include <vector>

@@ -1,6 +1,6 @@
-#include "discretization/discretization.h"
+#include <diffreg/discretization/discretization.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <Eigen/Dense>
 #include <algorithm>

@@ -4,7 +4,7 @@
 // only numerical code that knows mesh types.
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>

@@ -1,9 +1,9 @@
-#include "handles/handles.h"
+#include <diffreg/handles/handles.h>
 
-#include "core/error.h"
-#include "core/file.h"
-#include "core/text.h"
-#include "core/xml.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
+#include <diffreg/core/text.h>
+#include <diffreg/core/xml.h>
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>

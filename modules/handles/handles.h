@@ -2,7 +2,7 @@
 // magnitude m for the diffused weights. Read from the JSON handle file (README: "Handle files").
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
 #include <string>

@@ -1,4 +1,4 @@
-#include "mesh/boundary.h"
+#include <diffreg/mesh/boundary.h>
 
 #include <algorithm>
 

@@ -2,7 +2,7 @@
 // need it.
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
 

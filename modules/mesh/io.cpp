@@ -1,12 +1,12 @@
-#include "mesh/io.h"
+#include <diffreg/mesh/io.h>
 
-#include "core/colormap.h"
-#include "core/error.h"
-#include "core/file.h"
-#include "core/log.h"
-#include "mesh/boundary.h"
-#include "mesh/om.h"
-#include "mesh/parse.h"
+#include <diffreg/core/colormap.h>
+#include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
+#include <diffreg/core/log.h>
+#include <diffreg/mesh/boundary.h>
+#include <diffreg/mesh/om.h>
+#include <diffreg/mesh/parse.h>
 
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/IO/IOManager.hh>

@@ -2,7 +2,7 @@
 // message names the file and the element or line; writing never leaves a partial file.
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <string>
 #include <vector>

@@ -1,6 +1,6 @@
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <algorithm>
 #include <cmath>

@@ -1,8 +1,8 @@
-#include "mesh/om.h"
+#include <diffreg/mesh/om.h>
 
-#include "core/error.h"
-#include "core/log.h"
-#include "mesh/parse.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/mesh/parse.h>
 
 #include <cmath>
 #include <cstdint>

@@ -5,7 +5,7 @@
 // OpenMesh. The faces then go through buildTriMesh like those of every other format.
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <string>
 #include <string_view>

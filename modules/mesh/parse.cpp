@@ -1,8 +1,8 @@
-#include "mesh/parse.h"
+#include <diffreg/mesh/parse.h>
 
-#include "core/error.h"
-#include "core/log.h"
-#include "mesh/polygon.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/mesh/polygon.h>
 
 #include <OpenMesh/Core/IO/importer/ImporterT.hh>
 #include <OpenMesh/Core/System/omstream.hh>

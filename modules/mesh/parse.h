@@ -5,7 +5,7 @@
 // (or "source: ..." for binary data, naming the element).
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <string>
 #include <string_view>

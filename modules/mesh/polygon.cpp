@@ -1,6 +1,6 @@
-#include "mesh/polygon.h"
+#include <diffreg/mesh/polygon.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <Eigen/Geometry>
 

@@ -1,9 +1,9 @@
-#include "mesh/remesh.h"
+#include <diffreg/mesh/remesh.h>
 
 #include <OpenMesh/Tools/Subdivider/Uniform/LoopT.hh>
 
-#include "core/error.h"
-#include "core/log.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
 
 #include <algorithm>
 #include <cmath>

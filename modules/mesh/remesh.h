@@ -3,7 +3,7 @@
 // the ids of the existing vertices, so handles given by vertex id stay valid.
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <string>
 

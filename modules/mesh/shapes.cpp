@@ -1,6 +1,6 @@
-#include "mesh/shapes.h"
+#include <diffreg/mesh/shapes.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <algorithm>
 #include <array>

@@ -3,7 +3,7 @@
 // so every angle is at most 90 degrees and the cotangent weights are non-negative (Delaunay).
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <vector>
 

@@ -1,6 +1,6 @@
-#include "pipeline/document.h"
+#include <diffreg/pipeline/document.h>
 
-#include "mesh/io.h"
+#include <diffreg/mesh/io.h>
 
 namespace diffreg {
 

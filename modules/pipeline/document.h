@@ -1,10 +1,10 @@
 // A Document is what a pipeline works on: a mesh, its handles and its rest positions.
 #pragma once
 
-#include "deformation/deformer.h"
-#include "discretization/discretization.h"
-#include "handles/handles.h"
-#include "mesh/mesh.h"
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
 #include <functional>

@@ -1,6 +1,6 @@
-#include "pipeline/filter.h"
+#include <diffreg/pipeline/filter.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <algorithm>
 #include <set>

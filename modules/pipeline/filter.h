@@ -2,9 +2,9 @@
 // properties they need and produce, and apply(). Registered in a Registry.
 #pragma once
 
-#include "pipeline/document.h"
-#include "pipeline/params.h"
-#include "solver/solver.h"
+#include <diffreg/pipeline/document.h>
+#include <diffreg/pipeline/params.h>
+#include <diffreg/solver/solver.h>
 
 #include <nlohmann/json.hpp>
 #include <memory>

@@ -1,7 +1,7 @@
-#include "pipeline/mlx.h"
+#include <diffreg/pipeline/mlx.h>
 
-#include "core/error.h"
-#include "core/xml.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/xml.h>
 
 #include <algorithm>
 #include <cctype>

@@ -15,7 +15,7 @@
 // RichString.
 #pragma once
 
-#include "pipeline/pipeline.h"
+#include <diffreg/pipeline/pipeline.h>
 
 #include <string>
 #include <vector>

@@ -1,6 +1,6 @@
-#include "pipeline/params.h"
+#include <diffreg/pipeline/params.h>
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 
 #include <cctype>
 #include <cerrno>

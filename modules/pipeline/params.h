@@ -2,7 +2,7 @@
 // help); the CLI, the help text and scripts are all generated from these tables.
 #pragma once
 
-#include "core/names.h"
+#include <diffreg/core/names.h>
 
 #include <map>
 #include <string>

@@ -1,8 +1,8 @@
-#include "pipeline/pipeline.h"
+#include <diffreg/pipeline/pipeline.h>
 
-#include "core/error.h"
-#include "core/text.h"
-#include "core/timer.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/text.h>
+#include <diffreg/core/timer.h>
 
 #include <map>
 #include <set>

@@ -1,7 +1,7 @@
 // A pipeline: filters applied in order to a Document, with a JSON report.
 #pragma once
 
-#include "pipeline/filter.h"
+#include <diffreg/pipeline/filter.h>
 
 #include <nlohmann/json.hpp>
 #include <string>

@@ -1,6 +1,6 @@
 // The built-in bitmap font: 5x7 glyphs (lower case with 2-row descenders) and drawText.
-#include "core/error.h"
-#include "render/image.h"
+#include <diffreg/core/error.h>
+#include <diffreg/render/image.h>
 
 #include <array>
 #include <cstdint>

@@ -1,7 +1,7 @@
-#include "render/image.h"
+#include <diffreg/render/image.h>
 
-#include "core/error.h"
-#include "core/file.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
 
 #include <png.h>
 

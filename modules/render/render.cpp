@@ -1,7 +1,7 @@
-#include "render/render.h"
+#include <diffreg/render/render.h>
 
-#include "core/colormap.h"
-#include "core/error.h"
+#include <diffreg/core/colormap.h>
+#include <diffreg/core/error.h>
 
 #include <algorithm>
 #include <cmath>

@@ -3,9 +3,9 @@
 // optional wireframe and marked handle vertices. Z-buffered, supersampled, no GPU needed.
 #pragma once
 
-#include "mesh/boundary.h"  // tetBoundary: what a tet mesh is drawn by
-#include "mesh/mesh.h"
-#include "render/image.h"
+#include <diffreg/mesh/boundary.h>  // tetBoundary: what a tet mesh is drawn by
+#include <diffreg/mesh/mesh.h>
+#include <diffreg/render/image.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

@@ -1,11 +1,11 @@
-#include "serve/api.h"
+#include <diffreg/serve/api.h>
 
-#include "core/error.h"
-#include "core/text.h"
-#include "mesh/boundary.h"
-#include "mesh/io.h"
-#include "render/image.h"
-#include "render/render.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/text.h>
+#include <diffreg/mesh/boundary.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/render/image.h>
+#include <diffreg/render/render.h>
 
 #include <unistd.h>
 #include <nlohmann/json.hpp>

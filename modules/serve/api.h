@@ -74,7 +74,7 @@
 // update (coalescing), so a fast drag never queues stale solves.
 #pragma once
 
-#include "serve/session.h"
+#include <diffreg/serve/session.h>
 
 #include <atomic>
 #include <map>

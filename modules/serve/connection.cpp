@@ -1,4 +1,4 @@
-#include "serve/connection.h"
+#include <diffreg/serve/connection.h>
 
 #include <arpa/inet.h>
 #include <netdb.h>

@@ -1,7 +1,7 @@
-#include "serve/server.h"
+#include <diffreg/serve/server.h>
 
-#include "core/error.h"
-#include "serve/connection.h"
+#include <diffreg/core/error.h>
+#include <diffreg/serve/connection.h>
 
 #include <httplib.h>
 

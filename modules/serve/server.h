@@ -3,7 +3,7 @@
 // Debian's libjs-three.
 #pragma once
 
-#include "serve/api.h"
+#include <diffreg/serve/api.h>
 
 #include <memory>
 #include <string>

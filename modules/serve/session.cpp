@@ -1,7 +1,7 @@
-#include "serve/session.h"
+#include <diffreg/serve/session.h>
 
-#include "core/error.h"
-#include "core/timer.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/timer.h>
 
 #include <algorithm>
 #include <cmath>

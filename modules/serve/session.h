@@ -8,14 +8,14 @@
 // Several edits between two updates cost one update (coalescing).
 #pragma once
 
-#include "deformation/deformer.h"
-#include "deformation/metrics.h"
-#include "discretization/discretization.h"
-#include "handles/handles.h"
-#include "mesh/mesh.h"
-#include "solver/solver.h"
-#include "weights/diffusion.h"
-#include "weights/rbf.h"
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/metrics.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/mesh.h>
+#include <diffreg/solver/solver.h>
+#include <diffreg/weights/diffusion.h>
+#include <diffreg/weights/rbf.h>
 
 #include <Eigen/Core>
 #include <memory>

@@ -1,7 +1,7 @@
-#include "solver/solver.h"
+#include <diffreg/solver/solver.h>
 
-#include "core/error.h"
-#include "core/timer.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/timer.h>
 
 #include <Eigen/SparseCholesky>
 #ifdef DIFFREG_HAVE_CHOLMOD

@@ -1,8 +1,8 @@
-#include "weights/diffusion.h"
+#include <diffreg/weights/diffusion.h>
 
-#include "core/error.h"
-#include "core/log.h"
-#include "core/timer.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/core/timer.h>
 
 #include <algorithm>
 #include <cmath>

@@ -2,10 +2,10 @@
 // from the handles with Dirichlet values m_j, global time t and per-handle range r_j.
 #pragma once
 
-#include "core/names.h"
-#include "discretization/discretization.h"
-#include "handles/handles.h"
-#include "solver/solver.h"
+#include <diffreg/core/names.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/solver/solver.h>
 
 #include <string>
 #include <vector>

@@ -2,11 +2,11 @@
 #ifndef CGAL_EIGEN3_ENABLED
 #define CGAL_EIGEN3_ENABLED 1  // CGAL's default linear algebra for the heat method is Eigen
 #endif
-#include "weights/geodesic.h"
+#include <diffreg/weights/geodesic.h>
 
-#include "core/error.h"
-#include "discretization/discretization.h"
-#include "solver/solver.h"
+#include <diffreg/core/error.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/solver/solver.h>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Heat_method_3/Surface_mesh_geodesic_distances_3.h>

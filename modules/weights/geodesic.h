@@ -22,7 +22,7 @@
 // and unreferenced vertices get +infinity.
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
 #include <memory>

@@ -1,7 +1,7 @@
-#include "weights/rbf.h"
+#include <diffreg/weights/rbf.h>
 
-#include "core/error.h"
-#include "weights/geodesic.h"
+#include <diffreg/core/error.h>
+#include <diffreg/weights/geodesic.h>
 
 #include <algorithm>
 #include <cmath>

@@ -6,9 +6,9 @@
 // which is the paper's argument for diffused weights.
 #pragma once
 
-#include "core/names.h"
-#include "handles/handles.h"
-#include "mesh/mesh.h"
+#include <diffreg/core/names.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
 #include <string>

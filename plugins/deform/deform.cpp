@@ -1,12 +1,12 @@
 #include "deform/deform.h"
 
-#include "core/timer.h"
+#include <diffreg/core/timer.h>
 
 #include "deform/element_maps.h"
 #include "deform/measure.h"
-#include "deformation/deformer.h"
-#include "deformation/metrics.h"
-#include "pipeline/params.h"
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/metrics.h>
+#include <diffreg/pipeline/params.h>
 #include "plugins.h"
 
 namespace diffreg {

@@ -2,8 +2,8 @@
 // lARAP / Dirichlet, without, with uniform or with diffusion-weighted regularization.
 #pragma once
 
-#include "deformation/deformer.h"
-#include "pipeline/filter.h"
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/pipeline/filter.h>
 
 namespace diffreg {
 

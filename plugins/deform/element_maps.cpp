@@ -1,6 +1,6 @@
 #include "deform/element_maps.h"
 
-#include "deformation/metrics.h"
+#include <diffreg/deformation/metrics.h>
 
 namespace diffreg {
 

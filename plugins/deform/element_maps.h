@@ -2,10 +2,10 @@
 // layout and back, and the per-element maps written back to the mesh.
 #pragma once
 
-#include "deformation/energy.h"
-#include "deformation/residual_model.h"
-#include "discretization/discretization.h"
-#include "pipeline/document.h"
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/residual_model.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/pipeline/document.h>
 
 #include <Eigen/Core>
 #include <vector>

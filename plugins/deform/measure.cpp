@@ -1,10 +1,10 @@
 #include "deform/measure.h"
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 #include "deform/element_maps.h"
-#include "deformation/deformer.h"
-#include "deformation/metrics.h"
-#include "mesh/io.h"
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/metrics.h>
+#include <diffreg/mesh/io.h>
 
 #include <optional>
 

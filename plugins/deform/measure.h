@@ -2,7 +2,7 @@
 // "Metrics").
 #pragma once
 
-#include "pipeline/filter.h"
+#include <diffreg/pipeline/filter.h>
 
 namespace diffreg {
 

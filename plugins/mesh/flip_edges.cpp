@@ -1,8 +1,8 @@
 #include "mesh/flip_edges.h"
 
-#include "core/error.h"
-#include "core/log.h"
-#include "mesh/remesh.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/mesh/remesh.h>
 #include "plugins.h"
 
 #include <climits>

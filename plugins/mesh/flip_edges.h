@@ -2,7 +2,7 @@
 // triangulation-robustness experiment (Fig. 8).
 #pragma once
 
-#include "pipeline/filter.h"
+#include <diffreg/pipeline/filter.h>
 
 namespace diffreg {
 

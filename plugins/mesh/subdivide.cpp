@@ -1,7 +1,7 @@
 #include "mesh/subdivide.h"
 
-#include "core/error.h"
-#include "mesh/remesh.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/remesh.h>
 #include "mesh/flip_edges.h"
 #include "plugins.h"
 

@@ -2,7 +2,7 @@
 // mesh, for the paper's resolution experiment (Fig. 9).
 #pragma once
 
-#include "pipeline/filter.h"
+#include <diffreg/pipeline/filter.h>
 
 namespace diffreg {
 

@@ -1,8 +1,8 @@
 #include "render/render_filter.h"
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 #include "plugins.h"
-#include "render/render.h"
+#include <diffreg/render/render.h>
 
 #include <algorithm>
 #include <cctype>

@@ -3,7 +3,7 @@
 // stays the renderer of modules/render.)
 #pragma once
 
-#include "pipeline/filter.h"
+#include <diffreg/pipeline/filter.h>
 
 namespace diffreg {
 

@@ -1,8 +1,8 @@
 #include "weights/diffuse_weights.h"
 
-#include "discretization/discretization.h"
+#include <diffreg/discretization/discretization.h>
 #include "plugins.h"
-#include "weights/diffusion.h"
+#include <diffreg/weights/diffusion.h>
 #include "weights/rbf_weights.h"
 
 #include <algorithm>

@@ -2,8 +2,8 @@
 // handles (paper §3.2-3.3), stored as the vertex property diffreg:weight.
 #pragma once
 
-#include "pipeline/filter.h"
-#include "weights/diffusion.h"
+#include <diffreg/pipeline/filter.h>
+#include <diffreg/weights/diffusion.h>
 
 namespace diffreg {
 

@@ -1,6 +1,6 @@
 #include "weights/rbf_weights.h"
 
-#include "weights/rbf.h"
+#include <diffreg/weights/rbf.h>
 
 #include <algorithm>
 #include <limits>

@@ -3,7 +3,7 @@
 // diffreg:weight.
 #pragma once
 
-#include "pipeline/filter.h"
+#include <diffreg/pipeline/filter.h>
 
 namespace diffreg {
 

@@ -1,7 +1,7 @@
 #include "convert.h"
 
-#include "core/error.h"
-#include "mesh/io.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/io.h>
 
 #include <cmath>
 #include <exception>

@@ -8,11 +8,11 @@
 // without a copy (column-major, i.e. Fortran-ordered, for matrices).
 #pragma once
 
-#include "handles/handles.h"
-#include "mesh/mesh.h"
-#include "pipeline/filter.h"
-#include "pipeline/params.h"
-#include "solver/solver.h"
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/mesh.h>
+#include <diffreg/pipeline/filter.h>
+#include <diffreg/pipeline/params.h>
+#include <diffreg/solver/solver.h>
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>

@@ -3,14 +3,14 @@
 // the editing sessions (sessions.cpp).
 #include "convert.h"
 
-#include "core/error.h"
-#include "deformation/metrics.h"
-#include "deformation/regularizer.h"
-#include "discretization/discretization.h"
-#include "mesh/io.h"
-#include "pipeline/document.h"
-#include "pipeline/mlx.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/core/error.h>
+#include <diffreg/deformation/metrics.h>
+#include <diffreg/deformation/regularizer.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/pipeline/document.h>
+#include <diffreg/pipeline/mlx.h>
+#include <diffreg/pipeline/pipeline.h>
 
 #include <diffreg/version.h>
 

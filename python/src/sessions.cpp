@@ -3,12 +3,12 @@
 // `stats` counts the work (symbolic analyses, numeric factorizations, solves).
 #include "convert.h"
 
-#include "core/error.h"
+#include <diffreg/core/error.h>
 #include "deform/deform.h"
 #include "weights/diffuse_weights.h"
-#include "deformation/deformer.h"
-#include "discretization/discretization.h"
-#include "weights/diffusion.h"
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/weights/diffusion.h>
 
 #include <memory>
 

@@ -3,15 +3,15 @@
 // parsed as that kind, then (for meshes) built and validated as readMesh does. A diffreg::Error is
 // the expected answer to bad input; any other exception, a crash, a sanitizer report, a hang or an
 // allocation over libFuzzer's -malloc_limit_mb is a finding.
-#include "core/error.h"
-#include "core/log.h"
-#include "core/xml.h"
-#include "handles/handles.h"
-#include "mesh/io.h"
-#include "mesh/om.h"
-#include "mesh/parse.h"
-#include "mesh/shapes.h"
-#include "pipeline/mlx.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/core/xml.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/om.h>
+#include <diffreg/mesh/parse.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/pipeline/mlx.h>
 
 #include <cstdint>
 #include <cstdio>

@@ -2,7 +2,7 @@
 // the memory probe). Every case measures each metric once per repeat; the runner keeps medians.
 #pragma once
 
-#include "mesh/mesh.h"
+#include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
 #include <functional>

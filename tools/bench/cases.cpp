@@ -1,13 +1,13 @@
 // The benchmark cases on diffreg itself: diffused weights (eq. 7 / eq. 8), the regularized ARAP
 // session, the CGAL peer's problem set-up and the memory probe's session.
 #include "bench.h"
-#include "core/error.h"
-#include "core/timer.h"
-#include "deformation/deformer.h"
-#include "discretization/discretization.h"
-#include "mesh/io.h"
-#include "mesh/shapes.h"
-#include "weights/diffusion.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/timer.h>
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/weights/diffusion.h>
 
 #include <algorithm>
 #include <cmath>

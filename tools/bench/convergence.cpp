@@ -4,12 +4,12 @@
 // Scenario (all meshes): the 5% at the low end of the longest axis held, the 5% at the high end
 // pulled outwards along that axis by 15% of the bounding-box diagonal.
 #include "bench.h"
-#include "core/timer.h"
-#include "deformation/deformer.h"
-#include "discretization/discretization.h"
-#include "mesh/io.h"
-#include "mesh/shapes.h"
-#include "weights/diffusion.h"
+#include <diffreg/core/timer.h>
+#include <diffreg/deformation/deformer.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/shapes.h>
+#include <diffreg/weights/diffusion.h>
 
 #include <algorithm>
 #include <cmath>

@@ -2,10 +2,10 @@
 // CGAL's Surface_mesh_deformation on the same problems, and the peak memory of a 100K-vertex
 // surface session; prints the medians of several repeats as tables and writes them as JSON.
 #include "bench.h"
-#include "core/error.h"
-#include "core/log.h"
-#include "core/timer.h"
-#include "solver/solver.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/core/timer.h>
+#include <diffreg/solver/solver.h>
 
 #include <sys/resource.h>
 #include <sys/wait.h>

@@ -4,9 +4,9 @@
 // preprocessing and deforming once, in the same run. Handles: the 5% at both ends of the longest
 // axis, one end pulled by 10% of the length (as the peer cases).
 #include "bench.h"
-#include "core/error.h"
-#include "core/timer.h"
-#include "mesh/io.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/timer.h>
+#include <diffreg/mesh/io.h>
 
 #include <nlohmann/json.hpp>
 

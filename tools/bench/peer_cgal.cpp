@@ -2,8 +2,8 @@
 // this file: its headers are heavy and nothing else needs them.
 #define CGAL_EIGEN3_ENABLED 1  // CGAL's default solver for the deformation is Eigen's SparseLU
 #include "bench.h"
-#include "core/error.h"
-#include "core/timer.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/timer.h>
 
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>

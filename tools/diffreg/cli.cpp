@@ -1,8 +1,8 @@
 #include "cli.h"
 
-#include "core/error.h"
-#include "core/file.h"
-#include "core/log.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
+#include <diffreg/core/log.h>
 
 #include <cerrno>
 #include <cmath>

@@ -1,10 +1,10 @@
 #include "compare.h"
 
 #include "cli.h"
-#include "core/error.h"
-#include "core/log.h"
-#include "pipeline/pipeline.h"
-#include "render/render.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/pipeline/pipeline.h>
+#include <diffreg/render/render.h>
 
 #include <boost/program_options.hpp>
 

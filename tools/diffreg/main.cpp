@@ -10,12 +10,12 @@
 #include "cli.h"
 #include "compare.h"
 #include "serve.h"
-#include "core/error.h"
-#include "core/log.h"
-#include "core/timer.h"
-#include "mesh/io.h"
-#include "pipeline/mlx.h"
-#include "pipeline/pipeline.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/core/timer.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/pipeline/mlx.h>
+#include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
 #include "resolution.h"
 

@@ -1,12 +1,12 @@
 #include "resolution.h"
 
 #include "cli.h"
-#include "core/error.h"
-#include "core/log.h"
-#include "discretization/discretization.h"
-#include "pipeline/params.h"
-#include "pipeline/pipeline.h"
-#include "render/render.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/discretization/discretization.h>
+#include <diffreg/pipeline/params.h>
+#include <diffreg/pipeline/pipeline.h>
+#include <diffreg/render/render.h>
 
 #include <boost/program_options.hpp>
 

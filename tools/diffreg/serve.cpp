@@ -1,12 +1,12 @@
 #include "serve.h"
 
 #include "cli.h"
-#include "core/error.h"
-#include "core/log.h"
-#include "handles/handles.h"
-#include "mesh/io.h"
-#include "serve/api.h"
-#include "serve/server.h"
+#include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
+#include <diffreg/handles/handles.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/serve/api.h>
+#include <diffreg/serve/server.h>
 
 #include <boost/program_options.hpp>
 

@@ -1,9 +1,9 @@
 // diffreg-generate: writes the meshes the project ships (meshes/) from the shape generators.
 // Every size is chosen so that planar and tet coordinates are exact in float, the precision
 // of OpenMesh's OBJ writer; running it twice gives byte-identical files.
-#include "core/error.h"
-#include "mesh/io.h"
-#include "mesh/shapes.h"
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/io.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <exception>
 #include <filesystem>
