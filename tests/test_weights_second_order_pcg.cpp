@@ -152,10 +152,25 @@ TEST_CASE("PCG second-order weights reuse factorizations as Fig. 5 prescribes", 
   solved();
   CHECK(w.stats().symbolic == 1);  // a new handle set: symbolic + numeric
   CHECK(w.stats().numeric == 1);
-  w.setMagnitude(1, 0.5);  // m: only the CG runs
+  w.setMagnitude(1, 0.5);  // m: only the CG runs, for handle 1's own weights
   solved();
   CHECK(w.stats().symbolic == 1);
   CHECK(w.stats().numeric == 1);
+  // The same magnitude again (a slider): handle 1's own weights are kept, so nothing is solved,
+  // and the weights equal a solve from scratch.
+  w.setMagnitude(1, 0.8);
+  const Eigen::VectorXd dragged = w.solve();
+  CHECK(w.lastSolve().cgIterations == 0);
+  CHECK(w.stats().solves == solves);
+  DiffusionWeights scratch(d);
+  scratch.setHandles({a, b}, {1, 1}, {1, 0.8});
+  scratch.setParams(secondOrder(0.05, DiffusionSolve::Pcg));
+  CHECK((dragged - scratch.solve()).cwiseAbs().maxCoeff() < 1e-10);
+  w.setMagnitude(0, 0.7);  // the other handle: its own weights, once
+  solved();
+  scratch.setMagnitude(0, 0.7);
+  CHECK((w.solve() - scratch.solve()).cwiseAbs().maxCoeff() < 1e-10);
+  CHECK(w.lastSolve().cgIterations == 0);
   w.setParams(secondOrder(0.2, DiffusionSolve::Pcg));  // t: numeric only
   solved();
   CHECK(w.stats().symbolic == 1);

@@ -188,13 +188,52 @@ Eigen::VectorXd DiffusionWeights::solve() {
     preparePartition();
     newPattern = true;
   }
-  if (matrixDirty_ || newPattern) prepareMatrix(newPattern);
+  const bool newMatrix = matrixDirty_ || newPattern;
+  if (newMatrix) {
+    prepareMatrix(newPattern);
+    basis_.assign(sets_.size(), Eigen::VectorXd());
+    previous_.resize(0);
+  }
   lastSolve_ = DiffusionSolveInfo();
 
   // Dirichlet values g: m_j on handle j, 0 on unreferenced vertices.
   Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
   for (size_t j = 0; j < sets_.size(); ++j)
     for (int v : sets_[j]) g(partition_.local(v)) = magnitudes_[j];
+  Eigen::VectorXd x = usesPcg() && previous_.size() > 0 ? superposed() : solveFor(g);
+  if (usesPcg()) {
+    previous_ = x;
+    previousMagnitudes_ = magnitudes_;
+  }
+  if (params_.clip && x.size() > 0) {
+    const double top = *std::max_element(magnitudes_.begin(), magnitudes_.end());
+    x = x.cwiseMax(0.0).cwiseMin(top);
+  }
+  return partition_.scatter(x, g);
+}
+
+Eigen::VectorXd DiffusionWeights::superposed() {
+  Eigen::VectorXd x = previous_;
+  DiffusionSolveInfo total;
+  for (size_t j = 0; j < sets_.size(); ++j) {
+    const double change = magnitudes_[j] - previousMagnitudes_[j];
+    if (change == 0.0) continue;
+    if (basis_[j].size() == 0) {  // handle j's own weights (m_j = 1, the others 0), once
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
+      for (int v : sets_[j]) g(partition_.local(v)) = 1.0;
+      basis_[j] = solveFor(g);
+      total.cgIterations += lastSolve_.cgIterations;
+      total.cgResidual = std::max(total.cgResidual, lastSolve_.cgResidual);
+      total.converged = total.converged && lastSolve_.converged;
+      total.cgSeconds += lastSolve_.cgSeconds;
+    }
+    x += change * basis_[j];
+  }
+  lastSolve_ = total;
+  return x;
+}
+
+Eigen::VectorXd DiffusionWeights::solveFor(const Eigen::VectorXd& g) {
   const Eigen::VectorXd b = -(KFJ_ * g);
   const double t = absoluteTime();
   Eigen::VectorXd x;
@@ -214,11 +253,7 @@ Eigen::VectorXd DiffusionWeights::solve() {
       break;
     }
   }
-  if (params_.clip && x.size() > 0) {
-    const double top = *std::max_element(magnitudes_.begin(), magnitudes_.end());
-    x = x.cwiseMax(0.0).cwiseMin(top);
-  }
-  return partition_.scatter(x, g);
+  return x;
 }
 
 // B x = rhs, B = N + t K + t^2/2 K N^-1 K, by conjugate gradients preconditioned with

@@ -100,7 +100,9 @@ constexpr int kDiffusionCgMaxIterations = 100;
 /// setHandles -> symbolic analysis + numeric factorization at the next solve; a new t,
 /// setRange -> numeric factorization only; setMagnitude -> right-hand side only. The second order
 /// solved by `pcg` factors N + t/sqrt(2) K_FF (the first order's pattern) and runs CG against
-/// it: the same counts hold, and a new m_j re-runs only the CG. Switching to or from the direct
+/// it: the same counts hold; a new m_j runs one CG for handle j's own weights the first time it
+/// changes under this matrix and adds them in, and costs no solve after that (the weights are
+/// linear in the magnitudes). Switching to or from the direct
 /// second order changes the pattern, so it analyzes again.
 class DiffusionWeights {
  public:
@@ -139,6 +141,12 @@ class DiffusionWeights {
     return params_.order == DiffusionOrder::Second && params_.solve == DiffusionSolve::Pcg;
   }
   Eigen::VectorXd solvePcg(const Eigen::VectorXd& rhs, double t);
+  // The unclipped weights of the free vertices for Dirichlet values g (one full solve).
+  Eigen::VectorXd solveFor(const Eigen::VectorXd& g);
+  // pcg: the weights are linear in the magnitudes, so while the matrix is unchanged the new
+  // weights are the previous ones plus (m_j - previous m_j) times handle j's own weights,
+  // solved on the first change of m_j and kept: dragging a magnitude costs one CG, then none.
+  Eigen::VectorXd superposed();
 
   const Discretization& disc_;
   DiffusionParams params_;
@@ -151,6 +159,9 @@ class DiffusionWeights {
   SparseMatrix KNK_;        // K_FF N^-1 K_FF (direct second order), reused while r is unchanged
   SpdSolver solver_;
   DiffusionSolveInfo lastSolve_;
+  Eigen::VectorXd previous_;                // pcg: last unclipped free weights (empty: none)
+  std::vector<double> previousMagnitudes_;  // ... and the magnitudes they were solved for
+  std::vector<Eigen::VectorXd> basis_;      // pcg: handle j's own weights, solved on demand
   bool partitionDirty_ = true, matrixDirty_ = true, productDirty_ = true;
 };
 
