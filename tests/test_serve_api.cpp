@@ -260,6 +260,17 @@ TEST_CASE("serve API: bad requests get a 4xx and leave the session unchanged", "
     CHECK(after == before);
   }
   CHECK((f.positions() - x0).cwiseAbs().maxCoeff() == 0.0);
+  // An unknown choice is named by the field the request used, with the valid names.
+  for (const auto& [field, start] :
+       std::vector<std::pair<std::string, std::string>>{{"scheme", "scheme: unknown"},
+                                                        {"unit", "unit: unknown"},
+                                                        {"rbf_distance", "rbf_distance: unknown"}}) {
+    const auto [status, text] = f.send("PATCH", "/api/params", "{\"" + field + "\": \"x\"}");
+    CHECK(status == 422);
+    const std::string message = json::parse(text).at("error").get<std::string>();
+    CHECK(message.rfind(start, 0) == 0);
+    CHECK(message.find("(valid: ") != std::string::npos);
+  }
   const json state = f.ok("PATCH", "/api/handles/1", R"({"move_to": [8, 1, 0]})");
   CHECK(state.at("update").at("solved") == true);
   CHECK(f.positions()(98, 1) == Approx(1.0));

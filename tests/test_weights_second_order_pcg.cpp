@@ -156,7 +156,7 @@ TEST_CASE("PCG second-order weights reuse factorizations as Fig. 5 prescribes", 
   solved();
   CHECK(w.stats().symbolic == 1);
   CHECK(w.stats().numeric == 1);
-  // The same magnitude again (a slider): handle 1's own weights are kept, so nothing is solved,
+  // The same handle's magnitude again (a slider): handle 1's own weights are kept, so nothing is solved,
   // and the weights equal a solve from scratch.
   w.setMagnitude(1, 0.8);
   const Eigen::VectorXd dragged = w.solve();

@@ -49,15 +49,17 @@ std::vector<std::string> enumNames() {
 
 /// The enumerator called `name`.
 /// \throw InvalidParameter "<parameter>: unknown <noun> '<name>' (valid: a, b, c)".
+/// `parameter`: what the caller calls the value, when it is not the table's parameter name
+/// (e.g. a JSON field of the editor's API).
 template <class E>
-E parseEnum(const std::string& name) {
+E parseEnum(const std::string& name, const std::string& parameter = EnumTable<E>::parameter) {
   std::string valid;
   for (const EnumName<E>& n : EnumTable<E>::names) {
     if (name == n.name) return n.value;
     valid += (valid.empty() ? "" : ", ") + std::string(n.name);
   }
-  throw InvalidParameter(std::string(EnumTable<E>::parameter) + ": unknown " +
-                         EnumTable<E>::noun + " '" + name + "' (valid: " + valid + ")");
+  throw InvalidParameter(parameter + ": unknown " + EnumTable<E>::noun + " '" + name +
+                         "' (valid: " + valid + ")");
 }
 
 }  // namespace diffreg

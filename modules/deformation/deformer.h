@@ -43,13 +43,15 @@ struct EnumTable<Acceleration> {
 constexpr double kDefaultTolerance = 1e-7;
 /// The default cap on the iterations; converged runs stay far below it.
 constexpr int kDefaultIterations = 5000;
+/// The uniform beta the front ends (filters, editor) start from.
+constexpr double kDefaultUniformBeta = 0.5;
 /// The largest cap any front end accepts (filters, editor, Python).
 constexpr int kMaxIterations = 100000;
 
 struct DeformationOptions {
   Energy energy = Energy::Arap;
   Regularization regularization = Regularization::None;
-  double beta = 0.5;        ///< uniform beta
+  double beta = 0.0;        ///< uniform beta
   Eigen::VectorXd weights;  ///< per-vertex weights in [0, 1] for nonuniform
   /// Exact (block coordinate descent on eq. 3, the default) or the reference code's local step.
   LocalStep localStep = LocalStep::Exact;

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <type_traits>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -381,24 +382,26 @@ void applyParams(const json& body, EditParams& q) {
              "iterations", "tolerance", "local_step", "acceleration", "sigma", "rbf_distance",
              "reference", "continue_drags"},
             "params");
-  if (body.contains("energy")) q.energy = parseEnum<Energy>(text(body, "energy"));
-  if (body.contains("regularization"))
-    q.regularization = parseEnum<Regularization>(text(body, "regularization"));
+  // An enum field, its error naming the field as the API calls it.
+  const auto choice = [&body](const char* field, auto& value) {
+    if (body.contains(field))
+      value = parseEnum<std::decay_t<decltype(value)>>(text(body, field), field);
+  };
+  choice("energy", q.energy);
+  choice("regularization", q.regularization);
   if (body.contains("beta")) q.beta = number(body, "beta");
-  if (body.contains("scheme")) q.scheme = parseEnum<WeightScheme>(text(body, "scheme"));
-  if (body.contains("order")) q.diffusion.order = parseEnum<DiffusionOrder>(text(body, "order"));
+  choice("scheme", q.scheme);
+  choice("order", q.diffusion.order);
   if (body.contains("t")) q.diffusion.t = number(body, "t");
-  if (body.contains("unit")) q.diffusion.unit = parseEnum<TimeUnit>(text(body, "unit"));
+  choice("unit", q.diffusion.unit);
   if (body.contains("steps")) q.diffusion.steps = integer(body.at("steps"), "'steps'");
-  if (body.contains("solve")) q.diffusion.solve = parseEnum<DiffusionSolve>(text(body, "solve"));
+  choice("solve", q.diffusion.solve);
   if (body.contains("iterations")) q.iterations = integer(body.at("iterations"), "'iterations'");
   if (body.contains("tolerance")) q.tolerance = number(body, "tolerance");
-  if (body.contains("local_step")) q.localStep = parseEnum<LocalStep>(text(body, "local_step"));
-  if (body.contains("acceleration"))
-    q.acceleration = parseEnum<Acceleration>(text(body, "acceleration"));
+  choice("local_step", q.localStep);
+  choice("acceleration", q.acceleration);
   if (body.contains("sigma")) q.rbf.sigma = number(body, "sigma");
-  if (body.contains("rbf_distance"))
-    q.rbf.distance = parseEnum<RbfDistance>(text(body, "rbf_distance"));
+  choice("rbf_distance", q.rbf.distance);
   if (body.contains("reference")) q.reference = boolean(body, "reference");
   if (body.contains("continue_drags")) q.continueDrags = boolean(body, "continue_drags");
 }

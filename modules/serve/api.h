@@ -19,11 +19,11 @@
 //   PATCH  /api/params       any subset of {"energy": "arap"|"asap"|"larap"|"dirichlet",
 //                            "regularization": "none"|"uniform"|"nonuniform", "beta": [0, 1],
 //                            "scheme": "diffusion"|"rbf", "order": "first"|"second"|
-//                            "implicit_euler", "t": (0, 1e6], "unit": "absolute"|"diagonal"|
+//                            "implicit_euler", "t": [1e-12, 1e6], "unit": "absolute"|"diagonal"|
 //                            "mean_edge2", "steps": [1, 1e5], "iterations": [1, 1e5]
 //                            (per update), "tolerance": [0, 1] (stationarity), "local_step":
 //                            "exact"|"reference", "acceleration": "lbfgs"|"anderson"|"none",
-//                            "sigma": (0, 1e6], "rbf_distance":
+//                            "sigma": [1e-12, 1e6], "rbf_distance":
 //                            "euclidean"|"geodesic", "reference": bool, "continue_drags": bool
 //                            (EditParams::continueDrags)}
 //   POST   /api/handles      add a handle {"vertices": [ids], "name"?, "range"? (0, 1e6],

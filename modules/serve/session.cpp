@@ -386,6 +386,8 @@ bool EditSession::computeWeights(const EditState& want, Eigen::VectorXd& weights
     S.diffusionSynced = want;
     report.weights = S.diffusion->stats() - before;
     report.weightsWork = workOf(report.weights);
+    // New weights without a solve: a magnitude applied by superposition (DiffusionWeights).
+    if (changed && report.weightsWork == "none") report.weightsWork = "superpose";
   } else {
     S.diffusionSynced.reset();
     const std::optional<EditState>& had = S.rbfSynced;

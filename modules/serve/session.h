@@ -5,6 +5,7 @@
 //   handles added or removed (vertex sets changed), energy changed -> symbolic analysis
 //   t, order, r_j, beta, weights field, regularization mode changed -> numeric factorization
 //   a handle moved (targets), m_j changed (for the weights)        -> right-hand side only
+//     (weights by pcg: a repeated change of one m_j -> "superpose", no solve)
 // Several edits between two updates cost one update (coalescing).
 #pragma once
 
@@ -52,7 +53,7 @@ struct RbfSettings {
 struct EditParams {
   Energy energy = Energy::Arap;
   Regularization regularization = Regularization::Nonuniform;
-  double beta = 0.5;  ///< uniform regularization only
+  double beta = kDefaultUniformBeta;  ///< uniform regularization only
   WeightScheme scheme = WeightScheme::Diffusion;
   DiffusionParams diffusion;
   RbfSettings rbf;
@@ -92,7 +93,8 @@ struct EditState {
 /// What one update() did.
 struct UpdateReport {
   /// Per system, the costliest phase run: "none", "solve" (right-hand side only), "numeric"
-  /// (numeric factorization) or "analysis" (symbolic analysis and factorization).
+  /// (numeric factorization) or "analysis" (symbolic analysis and factorization). The weights
+  /// may also say "evaluate" (RBF weights) or "superpose" (a magnitude applied without a solve).
   std::string weightsWork = "none", deformationWork = "none", referenceWork = "none";
   SolverStats weights, deformation, reference;  ///< counters of this update only
   double weightsSeconds = 0.0, deformationSeconds = 0.0, referenceSeconds = 0.0;
@@ -133,8 +135,8 @@ class EditSession {
   /// Checks a state against the mesh: handle ids unique and below nextId, vertex ids in range,
   /// referenced and in one handle only, targets |vertices| x 3 and finite and within 1000
   /// bounding-box diagonals of the mesh, r_j in (0, 1e6], m_j in [0, 1], parameters in their
-  /// ranges (t in (0, 1e6], steps in [1, 1e5], beta in [0, 1], iterations in [1, 100000],
-  /// tolerance in [0, 1], sigma in (0, 1e6]).
+  /// ranges (t in [1e-12, 1e6], steps in [1, 1e5], beta in [0, 1], iterations in [1, 100000],
+  /// tolerance in [0, 1], sigma in [1e-12, 1e6]).
   /// \throw InvalidParameter naming the handle, vertex or parameter at fault.
   void validate(const EditState& state) const;
   /// Validates and records the wanted state; the results follow at the next update().

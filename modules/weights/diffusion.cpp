@@ -63,7 +63,7 @@ void DiffusionWeights::setMagnitude(int handle, double m) {
   if (!(m >= 0.0) || !std::isfinite(m))
     throw InvalidParameter("weights: handle " + std::to_string(handle) +
                            ": magnitude must be >= 0");
-  magnitudes_[handle] = m;  // right-hand side only
+  magnitudes_[handle] = m;  // right-hand side only (pcg: superposition, see solve())
 }
 
 void DiffusionWeights::setRange(int handle, double r) {
@@ -192,6 +192,7 @@ Eigen::VectorXd DiffusionWeights::solve() {
   if (newMatrix) {
     prepareMatrix(newPattern);
     basis_.assign(sets_.size(), Eigen::VectorXd());
+    basisInfo_.assign(sets_.size(), DiffusionSolveInfo());
     previous_.resize(0);
   }
   lastSolve_ = DiffusionSolveInfo();
@@ -204,6 +205,7 @@ Eigen::VectorXd DiffusionWeights::solve() {
   if (usesPcg()) {
     previous_ = x;
     previousMagnitudes_ = magnitudes_;
+    previousInfo_ = lastSolve_;
   }
   if (params_.clip && x.size() > 0) {
     const double top = *std::max_element(magnitudes_.begin(), magnitudes_.end());
@@ -214,19 +216,24 @@ Eigen::VectorXd DiffusionWeights::solve() {
 
 Eigen::VectorXd DiffusionWeights::superposed() {
   Eigen::VectorXd x = previous_;
+  // The CG runs of this call, and the accuracy of everything combined.
   DiffusionSolveInfo total;
+  total.cgResidual = previousInfo_.cgResidual;
+  total.converged = previousInfo_.converged;
   for (size_t j = 0; j < sets_.size(); ++j) {
     const double change = magnitudes_[j] - previousMagnitudes_[j];
     if (change == 0.0) continue;
     if (basis_[j].size() == 0) {  // handle j's own weights (m_j = 1, the others 0), once
       Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
       for (int v : sets_[j]) g(partition_.local(v)) = 1.0;
+      lastSolve_ = DiffusionSolveInfo();
       basis_[j] = solveFor(g);
+      basisInfo_[j] = lastSolve_;
       total.cgIterations += lastSolve_.cgIterations;
-      total.cgResidual = std::max(total.cgResidual, lastSolve_.cgResidual);
-      total.converged = total.converged && lastSolve_.converged;
       total.cgSeconds += lastSolve_.cgSeconds;
     }
+    total.cgResidual = std::max(total.cgResidual, basisInfo_[j].cgResidual);
+    total.converged = total.converged && basisInfo_[j].converged;
     x += change * basis_[j];
   }
   lastSolve_ = total;

@@ -84,9 +84,12 @@ struct DiffusionParams {
 struct DiffusionSolveInfo {
   int cgIterations = 0;
   /// ||rhs - B x|| / ||rhs|| of the returned x, as CG's recurrence tracks it (0 for an exact
-  /// solve).
+  /// solve). A new magnitude applied by superposition (DiffusionWeights) reports the largest
+  /// relative residual of the solutions it combines; cgIterations and cgSeconds then count only
+  /// the CG runs of that call (0 when every handle's own weights were already known).
   double cgResidual = 0.0;
-  bool converged = true;   ///< false when CG stopped at its iteration cap (a warning says so)
+  /// false when a CG combined into the result stopped at its iteration cap (a warning says so)
+  bool converged = true;
   double cgSeconds = 0.0;  ///< the whole CG, including its back-substitutions
 };
 
@@ -98,11 +101,11 @@ constexpr int kDiffusionCgMaxIterations = 100;
 
 /// An editing session for the weights that reuses factorizations as the paper's Fig. 5 says:
 /// setHandles -> symbolic analysis + numeric factorization at the next solve; a new t,
-/// setRange -> numeric factorization only; setMagnitude -> right-hand side only. The second order
-/// solved by `pcg` factors N + t/sqrt(2) K_FF (the first order's pattern) and runs CG against
-/// it: the same counts hold; a new m_j runs one CG for handle j's own weights the first time it
-/// changes under this matrix and adds them in, and costs no solve after that (the weights are
-/// linear in the magnitudes). Switching to or from the direct
+/// setRange -> numeric factorization only; setMagnitude -> right-hand side only. The second
+/// order solved by `pcg` factors N + t/sqrt(2) K_FF (the first order's pattern) and runs CG
+/// against it: the same counts hold, except that a new m_j runs one CG for handle j's own
+/// weights the first time it changes under this matrix and adds them in, and costs no solve
+/// after that (the weights are linear in the magnitudes). Switching to or from the direct
 /// second order changes the pattern, so it analyzes again.
 class DiffusionWeights {
  public:
@@ -161,7 +164,9 @@ class DiffusionWeights {
   DiffusionSolveInfo lastSolve_;
   Eigen::VectorXd previous_;                // pcg: last unclipped free weights (empty: none)
   std::vector<double> previousMagnitudes_;  // ... and the magnitudes they were solved for
+  DiffusionSolveInfo previousInfo_;         // ... and how accurate they are
   std::vector<Eigen::VectorXd> basis_;      // pcg: handle j's own weights, solved on demand
+  std::vector<DiffusionSolveInfo> basisInfo_;
   bool partitionDirty_ = true, matrixDirty_ = true, productDirty_ = true;
 };
 

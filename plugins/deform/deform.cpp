@@ -31,7 +31,7 @@ std::vector<ParamSpec> DeformFilter::params() const {
       enumParam("regularization", defaults.regularization,
                 "none; uniform (one beta everywhere, eq. 2); nonuniform (per-element beta from "
                 "the vertex weights diffreg:weight, eq. 3; run diffuse_weights first)."),
-      floatParam("beta", formatNumber(defaults.beta), 0.0, 1.0,
+      floatParam("beta", formatNumber(kDefaultUniformBeta), 0.0, 1.0,
                  "Regularization strength for regularization=uniform."),
       enumParam("local_step", defaults.localStep,
                 "exact: each rotation minimizes the regularized energy with its neighbours "

@@ -206,7 +206,8 @@ void bindDiffusionWeights(py::module_& m) {
        ")\n\nAn editing session for the diffused weights that keeps its factorization (paper "
        "Fig. 5): set_handles -> symbolic analysis and numeric factorization at the next solve; "
        "a new t (set_params) or set_range -> numeric factorization only; set_magnitude -> one "
-       "solve only. `stats` counts them.\n\n" +
+       "solve only (the default second order by pcg: one conjugate gradient run for that "
+       "handle the first time, none after). `stats` counts them.\n\n" +
        paramDoc("diffuse_weights"))
           .c_str())
       .def(py::init<const py::object&, const py::object&, const py::kwargs&>(), py::arg("V"),
