@@ -109,15 +109,17 @@ bool syncDeformation(const Discretization& disc, SolverBackend backend, TrackedD
   }
   DeformationSession& session = *tracked.session;
   const SolverStats before = fresh ? SolverStats{} : session.stats();
+  const HandleSet wanted = toHandleSet(want);
+  const std::vector<int> vertices = wanted.allVertices();
   bool dirty = fresh;
-  if (fresh || toHandleSet(*had).allVertices() != toHandleSet(want).allVertices()) {
-    session.setHandles(toHandleSet(want).allVertices());
+  if (fresh || toHandleSet(*had).allVertices() != vertices) {
+    session.setHandles(vertices);
     dirty = true;
   }
   // A drag: only targets moved since the last solve, which continues from its result.
   bool drag = !dirty && p.continueDrags;
   if (dirty || !sameTargets(*had, want)) {
-    session.setTargets(toHandleSet(want).allTargets());
+    session.setTargets(wanted.allTargets());
     dirty = true;
   }
   if (!fresh) {

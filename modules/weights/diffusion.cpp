@@ -191,16 +191,12 @@ Eigen::VectorXd DiffusionWeights::solve() {
   const bool newMatrix = matrixDirty_ || newPattern;
   if (newMatrix) {
     prepareMatrix(newPattern);
-    basis_.assign(sets_.size(), Eigen::VectorXd());
-    basisInfo_.assign(sets_.size(), DiffusionSolveInfo());
+    basis_.assign(sets_.size(), HandleSolution());
     previous_.resize(0);
   }
   lastSolve_ = DiffusionSolveInfo();
 
-  // Dirichlet values g: m_j on handle j, 0 on unreferenced vertices.
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
-  for (size_t j = 0; j < sets_.size(); ++j)
-    for (int v : sets_[j]) g(partition_.local(v)) = magnitudes_[j];
+  const Eigen::VectorXd g = dirichlet(magnitudes_);
   Eigen::VectorXd x = usesPcg() && previous_.size() > 0 ? superposed() : solveFor(g);
   if (usesPcg()) {
     previous_ = x;
@@ -223,21 +219,29 @@ Eigen::VectorXd DiffusionWeights::superposed() {
   for (size_t j = 0; j < sets_.size(); ++j) {
     const double change = magnitudes_[j] - previousMagnitudes_[j];
     if (change == 0.0) continue;
-    if (basis_[j].size() == 0) {  // handle j's own weights (m_j = 1, the others 0), once
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
-      for (int v : sets_[j]) g(partition_.local(v)) = 1.0;
+    HandleSolution& own = basis_[j];
+    if (own.x.size() == 0) {  // handle j's own weights (m_j = 1, the others 0), once
+      std::vector<double> unit(sets_.size(), 0.0);
+      unit[j] = 1.0;
       lastSolve_ = DiffusionSolveInfo();
-      basis_[j] = solveFor(g);
-      basisInfo_[j] = lastSolve_;
-      total.cgIterations += lastSolve_.cgIterations;
-      total.cgSeconds += lastSolve_.cgSeconds;
+      own.x = solveFor(dirichlet(unit));
+      own.info = lastSolve_;
+      total.cgIterations += own.info.cgIterations;
+      total.cgSeconds += own.info.cgSeconds;
     }
-    total.cgResidual = std::max(total.cgResidual, basisInfo_[j].cgResidual);
-    total.converged = total.converged && basisInfo_[j].converged;
-    x += change * basis_[j];
+    total.cgResidual = std::max(total.cgResidual, own.info.cgResidual);
+    total.converged = total.converged && own.info.converged;
+    x += change * own.x;
   }
   lastSolve_ = total;
   return x;
+}
+
+Eigen::VectorXd DiffusionWeights::dirichlet(const std::vector<double>& values) const {
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
+  for (size_t j = 0; j < sets_.size(); ++j)
+    for (int v : sets_[j]) g(partition_.local(v)) = values[j];
+  return g;
 }
 
 Eigen::VectorXd DiffusionWeights::solveFor(const Eigen::VectorXd& g) {

@@ -144,6 +144,8 @@ class DiffusionWeights {
     return params_.order == DiffusionOrder::Second && params_.solve == DiffusionSolve::Pcg;
   }
   Eigen::VectorXd solvePcg(const Eigen::VectorXd& rhs, double t);
+  // Dirichlet values of the fixed vertices: values[j] on handle j, 0 on unreferenced vertices.
+  Eigen::VectorXd dirichlet(const std::vector<double>& values) const;
   // The unclipped weights of the free vertices for Dirichlet values g (one full solve).
   Eigen::VectorXd solveFor(const Eigen::VectorXd& g);
   // pcg: the weights are linear in the magnitudes, so while the matrix is unchanged the new
@@ -165,8 +167,11 @@ class DiffusionWeights {
   Eigen::VectorXd previous_;                // pcg: last unclipped free weights (empty: none)
   std::vector<double> previousMagnitudes_;  // ... and the magnitudes they were solved for
   DiffusionSolveInfo previousInfo_;         // ... and how accurate they are
-  std::vector<Eigen::VectorXd> basis_;      // pcg: handle j's own weights, solved on demand
-  std::vector<DiffusionSolveInfo> basisInfo_;
+  struct HandleSolution {
+    Eigen::VectorXd x;  // empty until solved
+    DiffusionSolveInfo info;
+  };
+  std::vector<HandleSolution> basis_;  // pcg: handle j's own weights, solved on demand
   bool partitionDirty_ = true, matrixDirty_ = true, productDirty_ = true;
 };
 
