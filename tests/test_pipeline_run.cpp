@@ -9,6 +9,8 @@
 #include "plugins.h"
 #include <diffreg/weights/diffusion.h>
 
+#include "test_support.h"
+
 #include <catch2/catch.hpp>
 
 #include <cstdio>
@@ -18,6 +20,7 @@
 #include <unistd.h>
 
 using namespace diffreg;
+using diffreg::testing::shipped;
 
 namespace {
 
@@ -333,4 +336,41 @@ TEST_CASE("Document::restDiscretization is built once per rest shape", "[pipelin
     doc.rest = doc.mesh.positions();
     CHECK(doc.restDiscretization().numVertices() == doc.mesh.numVertices());
   }
+}
+
+TEST_CASE("pipeline: the filters share the document's edit engine and its factorizations",
+          "[pipeline][engine]") {
+  // diffuse_weights, deform and measure drive one EditEngine (Document::engine()): a second
+  // diffuse_weights with a new t refactors the weights' matrix numerically instead of
+  // analysing it again, and measure's unregularized reference analyses only its own systems.
+  Document doc = Document::load(shipped("bar.obj"), shipped("bar-bend.json"));
+  Pipeline p;
+  p.add("diffuse_weights", {{"t", "0.01"}});
+  p.add("deform", {{"regularization", "nonuniform"}});
+  p.add("measure");
+  p.add("diffuse_weights", {{"t", "0.02"}});
+  const nlohmann::json report = p.run(doc);
+  const nlohmann::json& f = report["filters"];
+  CHECK(f[0]["symbolic"].get<int>() == 1);
+  CHECK(f[1]["symbolic"].get<int>() >= 1);
+  // The reference's own systems only (as many as the deformation's: its system and the
+  // initial guess's); the deformation is not solved again.
+  CHECK(f[2]["symbolic"].get<int>() == f[1]["symbolic"].get<int>());
+  CHECK(f[3]["symbolic"].get<int>() == 0);
+  CHECK(f[3]["numeric"].get<int>() == 1);
+
+  // The same weights as a fresh document's filter with t = 0.02.
+  Document fresh = Document::load(shipped("bar.obj"), shipped("bar-bend.json"));
+  Pipeline q;
+  q.add("diffuse_weights", {{"t", "0.02"}});
+  q.run(fresh);
+  CHECK((doc.mesh.vertexScalar(prop::weight) - fresh.mesh.vertexScalar(prop::weight))
+            .cwiseAbs()
+            .maxCoeff() < 1e-12);
+
+  // A copy of the document builds its own engine: the copy's filters analyse again.
+  Document copy = doc;
+  Pipeline again;
+  again.add("diffuse_weights", {{"t", "0.03"}});
+  CHECK(again.run(copy)["filters"][0]["symbolic"].get<int>() == 1);
 }

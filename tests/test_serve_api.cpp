@@ -25,7 +25,7 @@ namespace {
 struct Fixture {
   Fixture() {
     Mesh mesh = readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/bar.obj");
-    api = std::make_unique<Api>(std::make_unique<EditSession>(std::move(mesh)), "bar.obj");
+    api = std::make_unique<Api>(std::make_unique<EditEngine>(std::move(mesh)), "bar.obj");
     server = std::make_unique<HttpServer>(*api);
     port = server->bind("127.0.0.1", 0);
     server->start();

@@ -31,7 +31,7 @@ namespace {
 struct Server {
   explicit Server(const std::string& name = "bar.obj", ServerOptions options = {}) {
     Mesh mesh = readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/bar.obj");
-    api = std::make_unique<Api>(std::make_unique<EditSession>(std::move(mesh)), name);
+    api = std::make_unique<Api>(std::make_unique<EditEngine>(std::move(mesh)), name);
     server = std::make_unique<HttpServer>(*api, options);
     port = server->bind("127.0.0.1", 0);
     server->start();

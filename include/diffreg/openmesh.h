@@ -7,9 +7,9 @@
 /// named properties: the vertex property `diffreg:weight` and the face properties
 /// `diffreg:distortion` and `diffreg:smoothness` (all `double`, persistent, so OpenMesh's `.om`
 /// writer keeps them). The mesh's other properties, attributes and connectivity are left as
-/// they are. Each call converts the mesh to diffreg's own Mesh (fromOpenMesh()) and runs the same
-/// library code as the stateful sessions (DiffusionWeights, DeformationSession) and the
-/// `diffreg` tool, so the results are identical to theirs.
+/// they are. Each call converts the mesh to diffreg's own Mesh (fromOpenMesh()) and drives the
+/// same edit engine (diffreg::EditEngine) as the `diffreg` tool's filters and editor, so the
+/// results are identical to theirs.
 ///
 /// A function either completes or throws before it writes anything to the caller's mesh.
 #pragma once
@@ -19,6 +19,7 @@
 #include <diffreg/deformation/energy.h>
 #include <diffreg/deformation/metrics.h>
 #include <diffreg/discretization/discretization.h>
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/handles/handles.h>
 #include <diffreg/mesh/io.h>
 #include <diffreg/mesh/mesh.h>
@@ -107,13 +108,6 @@ void copyDiffregDoubles(It begin, It end, Setter set) {
     const auto& data = p->data_vector();
     set(p->name(), Eigen::Map<const Eigen::VectorXd>(data.data(), data.size()));
   }
-}
-
-/// The handle vertices, handle by handle, and their targets (one row each).
-inline void stackHandles(const HandleSet& handles, std::vector<int>& vertices,
-                         Eigen::MatrixXd& targets) {
-  vertices = handles.allVertices();
-  targets = handles.allTargets();
 }
 
 /// The vertex weights for non-uniform regularization: the options' own, else the property.
@@ -221,11 +215,19 @@ template <class MeshT, detail::EnableIfOpenMesh<MeshT> = 0>
 Eigen::VectorXd computeDiffusedWeights(MeshT& mesh, const HandleSet& handles,
                                        const DiffusionParams& params = {}) {
   detail::checkWritable(mesh, {prop::weight}, {});
-  const Mesh rest = fromOpenMesh(mesh);
-  const Discretization disc(rest);
-  const Eigen::VectorXd weights = diffuseWeights(disc, handles, params);
-  detail::writeVertexDoubles(mesh, prop::weight, weights);
-  return weights;
+  if (handles.empty()) throw InvalidParameter("computeDiffusedWeights: no handles");
+  EditParams edit;
+  edit.scheme = WeightScheme::Diffusion;
+  edit.diffusion = params;
+  edit.deform = false;
+  edit.reference = false;
+  EngineSettings settings;
+  settings.interactive = false;
+  EditEngine engine(fromOpenMesh(mesh), settings);
+  engine.setEdit(handles, std::move(edit));
+  engine.updateOrThrow();
+  detail::writeVertexDoubles(mesh, prop::weight, engine.weights());
+  return engine.weights();
 }
 
 /// Deforms the mesh with the handle vertices moved to their targets (hard constraints),
@@ -245,26 +247,23 @@ template <class MeshT, detail::EnableIfOpenMesh<MeshT> = 0>
 DeformationResult deform(MeshT& mesh, const HandleSet& handles,
                          const DeformationOptions& options = {}) {
   detail::checkWritable(mesh, {}, {prop::distortion, prop::smoothness});
-  const Mesh rest = fromOpenMesh(mesh);
+  Mesh rest = fromOpenMesh(mesh);
   if (handles.empty()) throw InvalidParameter("deform: no handles");
-  DeformationOptions used = options;
-  used.weights = detail::regularizationWeightsOf(options, rest, "deform");
-  std::vector<int> vertices;
-  Eigen::MatrixXd targets;
-  detail::stackHandles(handles, vertices, targets);
+  EditParams edit = editParamsOf(options);
+  edit.givenWeights = detail::regularizationWeightsOf(options, rest, "deform");
+  EngineSettings settings;
+  settings.backend = options.backend;
+  settings.interactive = false;
+  EditEngine engine(std::move(rest), settings);
+  engine.setEdit(handles, std::move(edit));
+  engine.setProgress(options.progress);
+  engine.updateOrThrow();
 
-  const Discretization disc(rest);
-  DeformationSession session(disc, used);
-  session.setHandles(vertices);
-  session.setTargets(targets);
-  DeformationResult result = session.solve();
-
-  const Eigen::VectorXd distortion = elementDistortion(disc, used.energy, result.positions);
-  const Eigen::VectorXd smoothness =
-      elementSmoothness(disc, facetSmoothness(disc, used.energy, result.positions));
+  DeformationResult result = engine.lastRun();
+  result.positions = engine.positions().leftCols(engine.discretization().dim());
   writePositions(mesh, result.positions);
-  detail::writeFaceDoubles(mesh, prop::distortion, distortion);
-  detail::writeFaceDoubles(mesh, prop::smoothness, smoothness);
+  detail::writeFaceDoubles(mesh, prop::distortion, engine.distortion());
+  detail::writeFaceDoubles(mesh, prop::smoothness, engine.smoothness());
   return result;
 }
 

@@ -21,9 +21,22 @@ const Discretization& Document::restDiscretization() const {
   if (!valid) {
     const Eigen::MatrixXi elements = mesh.elements();
     restCache_ = std::make_shared<const RestCache>(
-        RestCache{mesh.kind(), rest, elements, Discretization(mesh.kind(), rest, elements)});
+        RestCache{mesh.kind(), rest, elements,
+                  std::make_shared<const Discretization>(mesh.kind(), rest, elements)});
   }
-  return restCache_->disc;
+  return *restCache_->disc;
+}
+
+EditEngine& Document::engine() {
+  restDiscretization();  // brings the cache in line with the rest shape
+  if (!engine_.engine || engine_.engine->sharedDiscretization() != restCache_->disc) {
+    Mesh restMesh = mesh;
+    restMesh.setPositions(rest);
+    EngineSettings settings;
+    settings.interactive = false;
+    engine_.engine = std::make_unique<EditEngine>(std::move(restMesh), restCache_->disc, settings);
+  }
+  return *engine_.engine;
 }
 
 }  // namespace diffreg

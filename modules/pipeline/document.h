@@ -3,6 +3,7 @@
 
 #include <diffreg/deformation/deformer.h>
 #include <diffreg/discretization/discretization.h>
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/handles/handles.h>
 #include <diffreg/mesh/mesh.h>
 
@@ -45,6 +46,14 @@ struct Document {
   /// pipeline share it.
   const Discretization& restDiscretization() const;
 
+  /// The edit engine of the rest shape (one-shot settings: EngineSettings::interactive off),
+  /// on restDiscretization(): built on the first call and again when the rest shape changed,
+  /// so that the filters of a pipeline share its factorizations (e.g. measure's unregularized
+  /// reference, or a second diffuse_weights with a new t: one numeric factorization). Filters
+  /// set the whole state they need before each update. A copy of a Document shares the
+  /// discretization but not the engine: it builds its own when asked.
+  EditEngine& engine();
+
   /// Reads a mesh (and optionally a handle file) and records the rest positions.
   static Document load(const std::string& meshPath, const std::string& handlesPath = "");
 
@@ -53,9 +62,22 @@ struct Document {
     MeshKind kind;
     Eigen::MatrixXd rest;
     Eigen::MatrixXi elements;
-    Discretization disc;
+    std::shared_ptr<const Discretization> disc;
   };
   mutable std::shared_ptr<const RestCache> restCache_;  // immutable once built: copies share it
+  /// Holds the engine; copying a Document copies none.
+  struct EngineSlot {
+    std::unique_ptr<EditEngine> engine;
+    EngineSlot() = default;
+    EngineSlot(const EngineSlot&) {}
+    EngineSlot& operator=(const EngineSlot&) {
+      engine.reset();
+      return *this;
+    }
+    EngineSlot(EngineSlot&&) = default;
+    EngineSlot& operator=(EngineSlot&&) = default;
+  };
+  EngineSlot engine_;
 };
 
 }  // namespace diffreg

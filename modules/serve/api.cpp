@@ -235,7 +235,7 @@ ApiResponse jsonResponse(const json& j) {
 
 /// GET /api/mesh: the rest mesh and the triangles the page draws (a tet mesh's boundary), each
 /// with the element it shows.
-ApiResponse meshResponse(const EditSession& s, const std::string& meshName) {
+ApiResponse meshResponse(const EditEngine& s, const std::string& meshName) {
   const Mesh& mesh = s.restMesh();
   json faces = json::array(), faceElement = json::array();
   if (mesh.isTet()) {
@@ -273,7 +273,7 @@ ApiResponse float32Response(const Eigen::VectorXd& values, long version) {
 }
 
 /// GET /api/positions: the current positions, flattened.
-ApiResponse positionsResponse(const EditSession& s, const std::string& format) {
+ApiResponse positionsResponse(const EditEngine& s, const std::string& format) {
   const Eigen::VectorXd x = flatten(s.positions());
   if (format == "f32") return float32Response(x, s.computedVersion());
   return jsonResponse({{"version", s.computedVersion()},
@@ -282,7 +282,7 @@ ApiResponse positionsResponse(const EditSession& s, const std::string& format) {
 
 /// GET /api/field?name=: the weights (per vertex), the distortion or the smoothness (per
 /// element) with their range.
-ApiResponse fieldResponse(const EditSession& s, const ApiRequest& r, const std::string& format) {
+ApiResponse fieldResponse(const EditEngine& s, const ApiRequest& r, const std::string& format) {
   const std::string name = r.query.count("name") ? r.query.at("name") : "";
   const Eigen::VectorXd* values = nullptr;
   std::string site = "element";
@@ -314,7 +314,7 @@ ApiResponse fieldResponse(const EditSession& s, const ApiRequest& r, const std::
 }
 
 /// GET /api/handles: the handle file; ?download as an attachment named after the mesh `stem`.
-ApiResponse handlesResponse(const EditSession& s, const ApiRequest& r, const std::string& stem) {
+ApiResponse handlesResponse(const EditEngine& s, const ApiRequest& r, const std::string& stem) {
   ApiResponse out;
   out.body = handlesToJson(s.handleSet());
   if (r.query.count("download")) out.filename = stem + "-handles.json";
@@ -322,7 +322,7 @@ ApiResponse handlesResponse(const EditSession& s, const ApiRequest& r, const std
 }
 
 /// GET /api/export/mesh.ply: the deformed mesh as the tool writes it.
-ApiResponse meshExport(const EditSession& s, const std::string& stem) {
+ApiResponse meshExport(const EditEngine& s, const std::string& stem) {
   TempFile file(".ply");
   writeMesh(file.path.string(), s.resultMesh());
   ApiResponse out;
@@ -334,7 +334,7 @@ ApiResponse meshExport(const EditSession& s, const std::string& stem) {
 
 /// The picture GET /api/export/image.png asks for: size and view from the query, `field`
 /// coloured on its usual scale, the handles marked.
-RenderOptions imageOptions(const EditSession& s, const ApiRequest& r, const std::string& field,
+RenderOptions imageOptions(const EditEngine& s, const ApiRequest& r, const std::string& field,
                            const std::string& stem) {
   RenderOptions options;
   options.width = queryInt(r, "width", 1200, 64, 4096);
@@ -362,7 +362,7 @@ RenderOptions imageOptions(const EditSession& s, const ApiRequest& r, const std:
 }
 
 /// GET /api/export/image.png?field=: the deformed mesh from the software renderer.
-ApiResponse imageExport(const EditSession& s, const ApiRequest& r, const std::string& stem) {
+ApiResponse imageExport(const EditEngine& s, const ApiRequest& r, const std::string& stem) {
   const std::string field = r.query.count("field") ? r.query.at("field") : "weight";
   const RenderOptions options = imageOptions(s, r, field, stem);
   TempFile file(".png");
@@ -391,6 +391,9 @@ void applyParams(const json& body, EditParams& q) {
   choice("regularization", q.regularization);
   if (body.contains("beta")) q.beta = number(body, "beta");
   choice("scheme", q.scheme);
+  if (q.scheme == WeightScheme::Given)
+    throw RequestError(400, "scheme: 'given' takes weights from the caller; the editor makes "
+                            "them (diffusion or rbf)");
   choice("order", q.diffusion.order);
   if (body.contains("t")) q.diffusion.t = number(body, "t");
   choice("unit", q.diffusion.unit);
@@ -470,7 +473,7 @@ void changeHandle(const json& body, EditHandle& h, const std::string& idText,
 
 /// Applies one edit request (parsed `body`, the PUT's `replacement` handles) to the session.
 /// Returns the id of a handle it created, else -1.
-int applyEdit(EditSession& s, const ApiRequest& r, const json& body,
+int applyEdit(EditEngine& s, const ApiRequest& r, const json& body,
               const std::optional<HandleSet>& replacement) {
   const std::string& p = r.path;
   if (p == "/api/handles" && r.method == "PUT") {
@@ -509,7 +512,7 @@ ApiResponse errorResponse(int status, const std::string& message) {
   return r;
 }
 
-Api::Api(std::unique_ptr<EditSession> session, std::string meshName, ApiOptions options)
+Api::Api(std::unique_ptr<EditEngine> session, std::string meshName, ApiOptions options)
     : session_(std::move(session)), meshName_(escapeNonUtf8(meshName)), options_(options) {
   if (!session_) throw InvalidParameter("the API needs an editing session");
   session_->update();
@@ -582,7 +585,7 @@ ApiResponse Api::route(const ApiRequest& r) {
 
 ApiResponse Api::read(const ApiRequest& r) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const EditSession& s = *session_;
+  const EditEngine& s = *session_;
   const std::string& p = r.path;
   const auto format = r.query.count("format") ? r.query.at("format") : std::string("json");
   if (format != "json" && format != "f32")
@@ -644,7 +647,7 @@ bool Api::finish() {
 }
 
 std::string Api::stateJson(bool coalesced, int created) const {
-  const EditSession& s = *session_;
+  const EditEngine& s = *session_;
   json handles = json::array();
   for (const EditHandle& h : s.state().handles)
     handles.push_back({{"id", h.id},

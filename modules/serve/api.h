@@ -74,7 +74,7 @@
 // update (coalescing), so a fast drag never queues stale solves.
 #pragma once
 
-#include <diffreg/serve/session.h>
+#include <diffreg/engine/edit_engine.h>
 
 #include <atomic>
 #include <map>
@@ -113,7 +113,7 @@ class Api {
  public:
   /// Takes the session (not null); `meshName` names the mesh in responses and downloads.
   /// Brings the session's results up to date.
-  Api(std::unique_ptr<EditSession> session, std::string meshName, ApiOptions options = {});
+  Api(std::unique_ptr<EditEngine> session, std::string meshName, ApiOptions options = {});
   ~Api();
 
   /// Answers one request. Never throws: every failure becomes a 4xx/5xx response.
@@ -134,7 +134,7 @@ class Api {
 
   std::mutex mutex_;
   std::atomic<int> waiting_{0};  // edits received but not yet applied
-  std::unique_ptr<EditSession> session_;
+  std::unique_ptr<EditEngine> session_;
   std::string meshName_;
   ApiOptions options_;
 };

@@ -1,9 +1,10 @@
 #include "deform/deform.h"
 
+#include <diffreg/core/error.h>
 #include <diffreg/core/timer.h>
 
-#include "deform/element_maps.h"
 #include "deform/measure.h"
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/deformation/deformer.h>
 #include <diffreg/deformation/metrics.h>
 #include <diffreg/pipeline/params.h>
@@ -75,36 +76,43 @@ DeformationOptions deformationOptionsOf(const ParamMap& params) {
 }
 
 FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
+  if (doc.handles.empty()) throw InvalidParameter("filter deform needs handles: give --handles");
   Timer timer;
-  const Discretization& disc = doc.restDiscretization();  // built here unless cached
+  EditEngine& engine = doc.engine();  // the discretization is built here unless cached
   const double discretization = timer.seconds();
-  DeformationOptions options = deformationOptionsOf(params);
+  const DeformationOptions options = deformationOptionsOf(params);
+  EditParams edit = editParamsOf(options);
   if (options.regularization == Regularization::Nonuniform)
-    options.weights = doc.mesh.vertexScalar(prop::weight);
-  // One solve: no later regularization to reserve the system's couplings for.
-  options.reserveRegularization = options.regularization != Regularization::None;
-  if (doc.progress)
-    options.progress = [&doc](int iteration, double energy, double criterion) {
-      doc.progress("deform", iteration, energy, criterion);
-    };
+    edit.givenWeights = doc.mesh.vertexScalar(prop::weight);
 
   timer.reset();
-  DeformationSession session(disc, options);
-  session.setHandles(doc.handles.allVertices());
-  session.setTargets(doc.handles.allTargets());
+  engine.setEdit(doc.handles, std::move(edit));
   const double setup = timer.seconds();
-  const DeformationResult result = session.solve();
+  if (doc.progress)
+    engine.setProgress([&doc](int iteration, double energy, double criterion) {
+      doc.progress("deform", iteration, energy, criterion);
+    });
+  UpdateReport report;
+  try {
+    report = engine.updateOrThrow();
+  } catch (...) {
+    engine.setProgress(nullptr);
+    throw;
+  }
+  engine.setProgress(nullptr);
+  const DeformationResult& result = engine.lastRun();
 
   timer.reset();
-  doc.mesh.setPositions(toMeshPositions(doc, result.positions));
-  writeElementMaps(doc, disc, options.energy, result.positions);
-  const double maps = timer.seconds();
+  doc.mesh.setPositions(engine.positions());
+  doc.mesh.setElementScalar(prop::distortion, engine.distortion());
+  doc.mesh.setElementScalar(prop::smoothness, engine.smoothness());
+  const double maps = timer.seconds() + report.metricsSeconds;
   doc.deformation = options;
   doc.deformation->weights.resize(0);  // the mesh keeps them as diffreg:weight
   doc.deformation->progress = nullptr;
 
   FilterResult out;
-  out.stats = session.stats();
+  out.stats = report.deformation;
   out.data = {{"energy", toString(options.energy)},
               {"regularization", toString(options.regularization)},
               {"initial_guess", result.initialGuess},
@@ -115,7 +123,7 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
               {"converged", result.converged},
               {"criterion", result.criterion},
               {"discretization_seconds", discretization},
-              {"setup_seconds", setup},
+              {"setup_seconds", setup + report.deformationSeconds - result.seconds},
               {"iteration_seconds", result.seconds},
               {"maps_seconds", maps},
               {"energies", result.energies}};

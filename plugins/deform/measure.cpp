@@ -3,6 +3,7 @@
 #include <diffreg/core/error.h>
 #include "deform/element_maps.h"
 #include <diffreg/deformation/deformer.h>
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/deformation/metrics.h>
 #include <diffreg/mesh/io.h>
 
@@ -88,14 +89,15 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
     if (mode == Regularization::None) {
       reference = positions;  // the deformation is its own unregularized solve
     } else {
-      const Discretization& restDisc = doc.restDiscretization();
-      DeformationOptions options = deformed;
-      options.regularization = Regularization::None;
-      DeformationSession session(restDisc, options);
-      session.setHandles(doc.handles.allVertices());
-      session.setTargets(doc.handles.allTargets());
-      reference = session.solve().positions;
-      out.stats = session.stats();
+      // The engine's reference: the same edit without regularization (its weights do not
+      // matter to it, so they are not given).
+      EditParams edit = editParamsOf(deformed);
+      edit.deform = false;
+      edit.reference = true;
+      EditEngine& engine = doc.engine();
+      engine.setEdit(doc.handles, std::move(edit));
+      out.stats = engine.updateOrThrow().reference;
+      reference = engine.referencePositions();
     }
     referenceText = "unregularized solve";
   }

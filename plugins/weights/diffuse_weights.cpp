@@ -1,6 +1,7 @@
 #include "weights/diffuse_weights.h"
 
 #include <diffreg/discretization/discretization.h>
+#include <diffreg/engine/edit_engine.h>
 #include "plugins.h"
 #include <diffreg/weights/diffusion.h>
 #include "weights/rbf_weights.h"
@@ -58,31 +59,41 @@ DiffusionParams diffusionParamsOf(const ParamMap& params) {
 }
 
 FilterResult DiffuseWeightsFilter::apply(Document& doc, const ParamMap& params) const {
-  const Discretization& disc = doc.restDiscretization();
-  DiffusionWeights session(disc);
-  session.setHandles(doc.handles);
-  session.setParams(diffusionParamsOf(params));
-  const Eigen::VectorXd x = session.solve();
-  doc.mesh.setVertexScalar(prop::weight, x);
+  EditParams edit;
+  edit.scheme = WeightScheme::Diffusion;
+  edit.diffusion = diffusionParamsOf(params);
+  const UpdateReport report = engineWeights(doc, std::move(edit));
 
+  FilterResult result;
+  result.stats = report.weights;
+  result.data = weightSummary(doc.engine().weights(), doc.restDiscretization().active());
+  result.data["t_absolute"] = report.absoluteTime;
+  result.data["cg_iterations"] = report.diffusionSolve.cgIterations;
+  result.data["cg_residual"] = report.diffusionSolve.cgResidual;
+  return result;
+}
+
+UpdateReport engineWeights(Document& doc, EditParams edit) {
+  edit.deform = false;
+  edit.reference = false;
+  EditEngine& engine = doc.engine();
+  engine.setEdit(doc.handles, std::move(edit));
+  UpdateReport report = engine.updateOrThrow();
+  doc.mesh.setVertexScalar(prop::weight, engine.weights());
+  return report;
+}
+
+nlohmann::json weightSummary(const Eigen::VectorXd& weights, const std::vector<bool>& used) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
   int count = 0;
-  for (int i = 0; i < x.size(); ++i) {
-    if (!disc.active()[i]) continue;
-    lo = std::min(lo, x[i]);
-    hi = std::max(hi, x[i]);
-    sum += x[i];
+  for (int i = 0; i < weights.size(); ++i) {
+    if (!used[static_cast<size_t>(i)]) continue;
+    lo = std::min(lo, weights[i]);
+    hi = std::max(hi, weights[i]);
+    sum += weights[i];
     ++count;
   }
-  FilterResult result;
-  result.stats = session.stats();
-  result.data = {{"t_absolute", session.absoluteTime()},
-                 {"min", count ? lo : 0.0},
-                 {"max", count ? hi : 0.0},
-                 {"mean", count ? sum / count : 0.0},
-                 {"cg_iterations", session.lastSolve().cgIterations},
-                 {"cg_residual", session.lastSolve().cgResidual}};
-  return result;
+  return {{"min", count ? lo : 0.0}, {"max", count ? hi : 0.0}, {"mean", count ? sum / count : 0.0}};
 }
 
 void registerWeightsFilters(Registry& registry) {

@@ -2,6 +2,7 @@
 // handles (paper §3.2-3.3), stored as the vertex property diffreg:weight.
 #pragma once
 
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/pipeline/filter.h>
 #include <diffreg/weights/diffusion.h>
 
@@ -13,6 +14,14 @@ namespace diffreg {
 /// vertices.
 /// The diffusion parameters diffuse_weights's parameters say (t, t_unit, order, steps, solve).
 DiffusionParams diffusionParamsOf(const ParamMap& params);
+
+/// The weights of `edit`'s scheme for the document's handles, computed by the document's edit
+/// engine (weights only) and stored as diffreg:weight. \throw what the engine's update throws.
+UpdateReport engineWeights(Document& doc, EditParams edit);
+
+/// min, max and mean of per-vertex weights over the vertices marked `used` (the weight
+/// filters' report).
+nlohmann::json weightSummary(const Eigen::VectorXd& weights, const std::vector<bool>& used);
 
 class DiffuseWeightsFilter : public Filter {
  public:

@@ -1,6 +1,9 @@
 #include "weights/rbf_weights.h"
 
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/weights/rbf.h>
+
+#include "weights/diffuse_weights.h"
 
 #include <algorithm>
 #include <limits>
@@ -46,36 +49,20 @@ std::vector<std::string> RbfWeightsFilter::produces(const ParamMap&) const {
 }
 
 FilterResult RbfWeightsFilter::apply(Document& doc, const ParamMap& params) const {
-  // Distances and the diagonal are taken on the rest shape, as diffuse_weights does, so that
-  // the weights do not depend on an earlier deform step.
-  Mesh rest = doc.mesh;
-  rest.setPositions(doc.rest);
-  const double sigma = params.getString("sigma_unit") == "absolute"
-                           ? params.getFloat("sigma")
-                           : rbfSigmaFromDiagonal(rest, params.getFloat("sigma"));
-  const Eigen::VectorXd x =
-      rbfWeights(rest, doc.handles, sigma, parseEnum<RbfDistance>(params.getString("distance")),
-                 params.getBool("clamp"));
-  doc.mesh.setVertexScalar(prop::weight, x);
+  EditParams edit;
+  edit.scheme = WeightScheme::Rbf;
+  edit.rbf.distance = parseEnum<RbfDistance>(params.getString("distance"));
+  edit.rbf.sigma = params.getFloat("sigma");
+  edit.rbf.sigmaAbsolute = params.getString("sigma_unit") == "absolute";
+  edit.rbf.clamp = params.getBool("clamp");
+  const UpdateReport report = engineWeights(doc, std::move(edit));
 
-  const std::vector<bool> used = rest.referenced();
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
-  int count = 0;
-  for (int i = 0; i < x.size(); ++i) {
-    if (!used[i]) continue;
-    lo = std::min(lo, x[i]);
-    hi = std::max(hi, x[i]);
-    sum += x[i];
-    ++count;
-  }
   double magnitude = 0.0;
   for (const Handle& h : doc.handles.handles) magnitude = std::max(magnitude, h.magnitude);
   FilterResult result;
-  result.data = {{"sigma_absolute", sigma},
-                 {"max_magnitude", magnitude},
-                 {"min", count ? lo : 0.0},
-                 {"max", count ? hi : 0.0},
-                 {"mean", count ? sum / count : 0.0}};
+  result.data = weightSummary(doc.engine().weights(), doc.mesh.referenced());
+  result.data["sigma_absolute"] = report.absoluteSigma;
+  result.data["max_magnitude"] = magnitude;
   return result;
 }
 

@@ -90,7 +90,7 @@ int runServe(int argc, char** argv) {
   Mesh mesh = readMesh(input);
   HandleSet handles;
   if (vm.count("handles")) handles = readHandles(vm["handles"].as<std::string>(), mesh);
-  auto session = std::make_unique<EditSession>(std::move(mesh));
+  auto session = std::make_unique<EditEngine>(std::move(mesh));
   if (!handles.empty()) session->setHandles(handles);
   Api api(std::move(session), std::filesystem::path(input).filename().string());
 

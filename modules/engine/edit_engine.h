@@ -1,7 +1,10 @@
-// An interactive editing session (the paper's Fig. 5): one mesh, its handles and the editing
-// parameters, with the regularization weights and the deformation kept up to date at the least
-// cost. Edits only describe the wanted state (cheap, validated); update() then brings the weights
-// and the deformation in line with it, and reuses every factorization it can:
+// The edit engine (the paper's Fig. 5): one rest mesh, its handles and the editing parameters,
+// with the regularization weights, the deformation, the same edit without regularization (for
+// Dist), the per-element maps and the Table-1 metrics kept up to date at the least cost. Every
+// front end drives it: the filters (through Document::engine()), compare and resolution
+// (through the filters), the OpenMesh API and `diffreg serve`. Edits only describe the wanted
+// state (cheap, validated once, here); update() then brings the results in line with it, and
+// reuses every factorization it can:
 //   handles added or removed (vertex sets changed), energy changed -> symbolic analysis
 //   t, order, r_j, beta, weights field, regularization mode changed -> numeric factorization
 //   a handle moved (targets), m_j changed (for the weights)        -> right-hand side only
@@ -19,6 +22,8 @@
 #include <diffreg/weights/rbf.h>
 
 #include <Eigen/Core>
+#include <exception>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -30,6 +35,7 @@ namespace diffreg {
 enum class WeightScheme {
   Diffusion,  ///< heat diffusion from the handles (weights/diffusion.h)
   Rbf,        ///< Gaussian RBF per handle (weights/rbf.h), the paper's baseline
+  Given,      ///< EditParams::givenWeights, made elsewhere (e.g. the mesh's diffreg:weight)
 };
 template <>
 struct EnumTable<WeightScheme> {
@@ -38,12 +44,14 @@ struct EnumTable<WeightScheme> {
   static constexpr EnumName<WeightScheme> names[] = {
       {WeightScheme::Diffusion, "diffusion"},
       {WeightScheme::Rbf, "rbf"},
+      {WeightScheme::Given, "given"},
   };
 };
 
 struct RbfSettings {
   RbfDistance distance = RbfDistance::Geodesic;
   double sigma = 0.1;  ///< kernel width as a fraction of the bounding-box diagonal
+  bool sigmaAbsolute = false;  ///< sigma is a length, not a fraction of the diagonal
   /// Clamp to [0, 1]: unclamped RBF sums may exceed 1 between nearby handles, and such weights
   /// cannot serve as beta for the non-uniform regularization.
   bool clamp = true;
@@ -57,6 +65,13 @@ struct EditParams {
   WeightScheme scheme = WeightScheme::Diffusion;
   DiffusionParams diffusion;
   RbfSettings rbf;
+  /// The weights per vertex for scheme Given, in [0, 1] (empty: zero everywhere).
+  Eigen::VectorXd givenWeights;
+  /// Solve the deformation. Off: the weights only (and the reference when asked for); the
+  /// shape stays at rest and the maps at zero. The weight filters use this.
+  bool deform = true;
+  /// Also compute the Table-1 metrics with the maps (off: metrics() keeps zeros).
+  bool metrics = true;
   /// Local/global iterations per update (ARAP; ASAP on surfaces and solids). A run that stops
   /// here unconverged continues with refine() while the editor is idle.
   int iterations = 50;
@@ -71,6 +86,18 @@ struct EditParams {
   /// then depends on the path of the drag as long as the iterations have not converged. Off:
   /// every update solves from the rest shape, as the diffreg tool does.
   bool continueDrags = false;
+  /// L-BFGS pairs, or earlier iterates Anderson combines (DeformationOptions::history).
+  int history = 8;
+};
+
+/// How an engine is used, fixed for its life.
+struct EngineSettings {
+  SolverBackend backend = defaultSolverBackend();
+  /// Interactive (the editor): the regularization may change between updates, so the
+  /// deformation's system reserves the facet couplings even without regularization (a switch
+  /// then costs a numeric factorization, not an analysis). Off (a filter, a one-shot call):
+  /// reserved only while regularized, so an unregularized solve keeps the smaller pattern.
+  bool interactive = true;
 };
 
 /// One handle: constrained vertices, their target positions, and its range r_j and magnitude
@@ -112,22 +139,35 @@ struct UpdateReport {
   /// results are kept.
   bool solved = true;
   std::string message;
+  /// The exception behind solved = false (null otherwise), for callers that rethrow it.
+  std::exception_ptr failure;
+  /// What the weights' last computation did: the diffusion's absolute t (length^2) and its
+  /// conjugate gradients, or the RBF kernel's absolute sigma.
+  double absoluteTime = 0.0, absoluteSigma = 0.0;
+  DiffusionSolveInfo diffusionSolve;
 };
+
+/// The edit parameters of a one-shot deformation with `options`: the weights given
+/// (options.weights), no reference, no metrics.
+EditParams editParamsOf(const DeformationOptions& options);
 
 /// The handles of a state as a HandleSet (unnamed handles are called handle-<id>).
 HandleSet toHandleSet(const EditState& state);
 
-class EditSession {
+class EditEngine {
  public:
   /// Takes the rest mesh.
   /// \throw InvalidMesh for a mesh the discretization rejects (degenerate elements).
-  explicit EditSession(Mesh mesh, SolverBackend backend = defaultSolverBackend());
-  ~EditSession();
-  EditSession(const EditSession&) = delete;
-  EditSession& operator=(const EditSession&) = delete;
+  explicit EditEngine(Mesh mesh, EngineSettings settings = {});
+  /// The same on a discretization of `mesh` built elsewhere (shared, e.g. a Document's).
+  EditEngine(Mesh mesh, std::shared_ptr<const Discretization> disc, EngineSettings settings = {});
+  ~EditEngine();
+  EditEngine(const EditEngine&) = delete;
+  EditEngine& operator=(const EditEngine&) = delete;
 
   const Mesh& restMesh() const { return mesh_; }
   const Discretization& discretization() const { return *disc_; }
+  const std::shared_ptr<const Discretization>& sharedDiscretization() const { return disc_; }
   int numVertices() const { return disc_->numVertices(); }
 
   /// The wanted state: the last one accepted by setState().
@@ -136,7 +176,8 @@ class EditSession {
   /// referenced and in one handle only, targets |vertices| x 3 and finite and within 1000
   /// bounding-box diagonals of the mesh, r_j in (0, 1e6], m_j in [0, 1], parameters in their
   /// ranges (t in [1e-12, 1e6], steps in [1, 1e5], beta in [0, 1], iterations in [1, 100000],
-  /// tolerance in [0, 1], sigma in [1e-12, 1e6]).
+  /// tolerance in [0, 1], sigma in [1e-12, 1e6], history in [1, 100]; given weights n values
+  /// in [0, 1], or none).
   /// \throw InvalidParameter naming the handle, vertex or parameter at fault.
   void validate(const EditState& state) const;
   /// Validates and records the wanted state; the results follow at the next update().
@@ -145,6 +186,9 @@ class EditSession {
   /// Handles from a handle file's HandleSet (new ids), keeping the parameters.
   /// \throw InvalidParameter as validate().
   void setHandles(const HandleSet& handles);
+  /// Handles from a HandleSet (new ids) and the parameters, in one validation.
+  /// \throw InvalidParameter as validate(); the session is then unchanged.
+  void setEdit(const HandleSet& handles, EditParams params);
   /// Increases with every accepted setState().
   long version() const { return version_; }
   /// The version the results belong to (equal to version() after update()).
@@ -155,10 +199,26 @@ class EditSession {
   /// previous results are kept.
   UpdateReport update();
   const UpdateReport& lastUpdate() const { return last_; }
+  /// update() for one-shot callers: a failure is thrown (its own exception: InvalidParameter,
+  /// SingularSystem, ...) instead of reported.
+  UpdateReport updateOrThrow();
   /// Asks the next update() to continue an unconverged deformation (and reference) from the
   /// current shapes for another `iterations`. Returns false when there is nothing to continue
   /// (the last update converged or failed, and no edit is pending).
   bool refine();
+
+  /// Progress of the deformation's iterations (not the reference's): iteration, energy,
+  /// criterion. Exceptions thrown here end the update (reported as solved = false).
+  void setProgress(std::function<void(int iteration, double energy, double criterion)> progress) {
+    progress_ = std::move(progress);
+  }
+
+  /// The last deformation run (energies, iterations, convergence; its positions are
+  /// positions()). Unchanged by an update that did not solve the deformation.
+  const DeformationResult& lastRun() const { return lastRun_; }
+  /// The same edit without regularization, n x d, when params.reference asked for it and the
+  /// edit is regularized (empty otherwise).
+  const Eigen::MatrixXd& referencePositions() const;
 
   /// Current positions, n x 3 (the rest shape before any deformation or without handles).
   const Eigen::MatrixXd& positions() const { return positions_; }
@@ -191,12 +251,16 @@ class EditSession {
   // Brings the diffusion's handles, ranges, magnitudes and parameters in line with `want`;
   // returns whether the weights must be solved again.
   bool syncDiffusion(const EditState& want);
+  // Whether `want` asks for the unregularized reference (a regularized edit with handles).
+  static bool wantsReference(const EditState& want);
   // distortion_, smoothness_ and metrics_ for the shape `positions` (n x 3).
   void computeMaps(const EditState& want, const Eigen::MatrixXd& positions);
 
   Mesh mesh_;
-  std::unique_ptr<Discretization> disc_;
-  SolverBackend backend_;
+  std::shared_ptr<const Discretization> disc_;
+  EngineSettings settings_;
+  std::function<void(int, double, double)> progress_;
+  DeformationResult lastRun_;
   EditState state_;
   std::optional<EditState> computed_;  // the state the systems and results belong to
   std::unique_ptr<Systems> systems_;

@@ -1,13 +1,15 @@
-// The editing session behind `diffreg serve` (no HTTP): each edit costs what the paper's
-// Fig. 5 says and no more, invalid states are refused without a trace, and every mesh kind
-// deforms.
+// The edit engine behind every front end (filters, the OpenMesh API, `diffreg serve`): each
+// edit costs what the paper's Fig. 5 says and no more, invalid states are refused without a
+// trace, every mesh kind deforms, and the one-shot uses give what the sessions below it give.
 #include <diffreg/core/error.h>
 #include <diffreg/mesh/io.h>
-#include <diffreg/serve/session.h>
+#include <diffreg/engine/edit_engine.h>
 
 #include <catch2/catch.hpp>
 
 #include <string>
+#include <tuple>
+#include <vector>
 
 using namespace diffreg;
 
@@ -17,7 +19,7 @@ Mesh shipped(const std::string& name) {
   return readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/" + name);
 }
 
-EditHandle handle(const EditSession& s, EditState& state, std::vector<int> vertices) {
+EditHandle handle(const EditEngine& s, EditState& state, std::vector<int> vertices) {
   EditHandle h;
   h.id = state.nextId++;
   h.vertices = std::move(vertices);
@@ -29,8 +31,8 @@ EditHandle handle(const EditSession& s, EditState& state, std::vector<int> verti
 
 }  // namespace
 
-TEST_CASE("serve session: each edit costs only what it must", "[serve]") {
-  EditSession s(shipped("bar.obj"));
+TEST_CASE("edit engine: each edit costs only what it must", "[engine]") {
+  EditEngine s(shipped("bar.obj"));
   EditState state = s.state();
   state.handles.push_back(handle(s, state, {0, 33, 66, 99, 132}));
   state.handles.push_back(handle(s, state, {32, 65, 98, 131, 164}));
@@ -75,8 +77,8 @@ TEST_CASE("serve session: each edit costs only what it must", "[serve]") {
   CHECK(out.hasElementScalar(prop::smoothness));
 }
 
-TEST_CASE("serve session: invalid states are refused and leave the session unchanged", "[serve]") {
-  EditSession s(shipped("bar.obj"));
+TEST_CASE("edit engine: invalid states are refused and leave the session unchanged", "[engine]") {
+  EditEngine s(shipped("bar.obj"));
   EditState state = s.state();
   state.handles.push_back(handle(s, state, {0, 33}));
   s.setState(state);
@@ -116,10 +118,10 @@ TEST_CASE("serve session: invalid states are refused and leave the session uncha
   refused(bad);
 }
 
-TEST_CASE("serve session: surfaces and tet meshes deform with every energy", "[serve]") {
+TEST_CASE("edit engine: surfaces and tet meshes deform with every energy", "[engine]") {
   for (const char* name : {"cylinder.obj", "tetbar.mesh"}) {
     INFO(name);
-    EditSession s(shipped(name));
+    EditEngine s(shipped(name));
     const Eigen::MatrixXd rest = s.positions();
     // The vertices at the lowest and the highest end of the longest axis.
     Eigen::Index axis = 0;
@@ -147,11 +149,11 @@ TEST_CASE("serve session: surfaces and tet meshes deform with every energy", "[s
   }
 }
 
-TEST_CASE("serve session: with continue_drags a drag continues from the current shape",
-          "[serve]") {
+TEST_CASE("edit engine: with continue_drags a drag continues from the current shape",
+          "[engine]") {
   for (bool continueDrags : {false, true}) {
     INFO("continue_drags " << continueDrags);
-    EditSession s(shipped("bar.obj"));
+    EditEngine s(shipped("bar.obj"));
     EditState state = s.state();
     state.params.iterations = 500;
     state.params.tolerance = 1e-7;
@@ -188,9 +190,9 @@ TEST_CASE("serve session: with continue_drags a drag continues from the current 
   }
 }
 
-TEST_CASE("serve session: refine continues an unconverged deformation until it converges",
-          "[serve]") {
-  EditSession s(shipped("bar.obj"));
+TEST_CASE("edit engine: refine continues an unconverged deformation until it converges",
+          "[engine]") {
+  EditEngine s(shipped("bar.obj"));
   EditState state = s.state();
   state.params.iterations = 3;  // a small budget per update
   state.handles.push_back(handle(s, state, {0, 33, 66, 99, 132}));
@@ -216,11 +218,136 @@ TEST_CASE("serve session: refine continues an unconverged deformation until it c
   CHECK_FALSE(s.refine());  // nothing left to do
 
   // Batches of a continued run are one run: the same shape as a single converged solve.
-  EditSession once(shipped("bar.obj"));
+  EditEngine once(shipped("bar.obj"));
   EditState all = state;
   all.params.iterations = kDefaultIterations;
   once.setState(all);
   REQUIRE(once.update().converged);
   CHECK(s.metrics().energy == Approx(once.metrics().energy).epsilon(1e-9));
   CHECK((s.positions() - once.positions()).cwiseAbs().maxCoeff() < 1e-9);
+}
+
+namespace {
+
+/// The bar's two end handles as a HandleSet, the right one pulled up by `lift`.
+HandleSet barHandles(const Mesh& bar, double lift) {
+  HandleSet set;
+  for (const auto& [name, vertices, dy] :
+       {std::tuple<const char*, std::vector<int>, double>{"left", {0, 33, 66, 99, 132}, 0.0},
+        {"right", {32, 65, 98, 131, 164}, lift}}) {
+    Handle h;
+    h.name = name;
+    h.vertices = vertices;
+    h.targets.resize(static_cast<Eigen::Index>(vertices.size()), 3);
+    for (size_t i = 0; i < vertices.size(); ++i)
+      h.targets.row(static_cast<Eigen::Index>(i)) = bar.positions().row(vertices[i]);
+    h.targets.col(1).array() += dy;
+    set.handles.push_back(h);
+  }
+  return set;
+}
+
+}  // namespace
+
+TEST_CASE("edit engine: weights alone, then the deformation, then its reference", "[engine]") {
+  const Mesh bar = shipped("bar.obj");
+  EngineSettings oneShot;
+  oneShot.interactive = false;
+  EditEngine engine(bar, oneShot);
+  EditParams weightsOnly;
+  weightsOnly.deform = false;
+  weightsOnly.reference = false;
+  engine.setEdit(barHandles(bar, 1.0), weightsOnly);
+  UpdateReport u = engine.updateOrThrow();
+  CHECK(u.weightsWork == "analysis");
+  CHECK(u.deformationWork == "none");
+  CHECK(u.absoluteTime > 0.0);
+  CHECK(engine.positions() == bar.positions());  // no deformation asked for
+  CHECK(engine.weights().maxCoeff() == Approx(1.0));
+
+  // The same weights given: the deformation equals a DeformationSession's with them.
+  EditParams deformParams;
+  deformParams.scheme = WeightScheme::Given;
+  deformParams.givenWeights = engine.weights();
+  deformParams.reference = false;
+  const Eigen::VectorXd weights = engine.weights();
+  engine.setEdit(barHandles(bar, 1.0), deformParams);
+  u = engine.updateOrThrow();
+  CHECK(u.weightsWork == "none");  // the given weights are the diffused ones
+  CHECK(u.deformationWork == "analysis");
+  DeformationOptions options;
+  options.regularization = Regularization::Nonuniform;
+  options.weights = weights;
+  options.maxIterations = deformParams.iterations;
+  options.relTolerance = deformParams.tolerance;
+  const Discretization disc(bar);
+  DeformationSession session(disc, options);
+  const HandleSet handles = barHandles(bar, 1.0);
+  session.setHandles(handles.allVertices());
+  session.setTargets(handles.allTargets());
+  const DeformationResult direct = session.solve();
+  CHECK((engine.positions().leftCols(2) - direct.positions).cwiseAbs().maxCoeff() < 1e-12);
+  CHECK(engine.lastRun().iterations == direct.iterations);
+  CHECK(engine.referencePositions().size() == 0);
+
+  // The reference alone (measure's request): the deformation is not solved again.
+  EditParams referenceOnly = deformParams;
+  referenceOnly.deform = false;
+  referenceOnly.reference = true;
+  engine.setEdit(barHandles(bar, 1.0), referenceOnly);
+  u = engine.updateOrThrow();
+  CHECK(u.deformationWork == "none");
+  CHECK(u.referenceWork == "analysis");
+  REQUIRE(engine.referencePositions().rows() == bar.numVertices());
+  options.regularization = Regularization::None;
+  DeformationSession plain(disc, options);
+  plain.setHandles(handles.allVertices());
+  plain.setTargets(handles.allTargets());
+  CHECK((engine.referencePositions() - plain.solve().positions).cwiseAbs().maxCoeff() < 1e-12);
+
+  // Back to the deformation: its shape comes back without a solve.
+  engine.setEdit(barHandles(bar, 1.0), deformParams);
+  u = engine.updateOrThrow();
+  CHECK(u.deformationWork == "none");
+  CHECK((engine.positions().leftCols(2) - direct.positions).cwiseAbs().maxCoeff() < 1e-12);
+}
+
+TEST_CASE("edit engine: one-shot settings keep an unregularized system small", "[engine]") {
+  // Interactive: the facet couplings are reserved, so turning regularization on refactors.
+  // One-shot: an unregularized edit analyses the smaller pattern; regularizing it later must
+  // analyse again (a new session), and gives the same shape as the interactive engine.
+  const Mesh bar = shipped("bar.obj");
+  EngineSettings oneShot;
+  oneShot.interactive = false;
+  EditEngine interactive(bar), once(bar, oneShot);
+  EditParams p;
+  p.scheme = WeightScheme::Given;
+  p.regularization = Regularization::None;
+  for (EditEngine* e : {&interactive, &once}) {
+    e->setEdit(barHandles(bar, 1.0), p);
+    CHECK(e->updateOrThrow().deformationWork == "analysis");
+  }
+  p.regularization = Regularization::Uniform;
+  interactive.setEdit(barHandles(bar, 1.0), p);
+  once.setEdit(barHandles(bar, 1.0), p);
+  CHECK(interactive.updateOrThrow().deformationWork == "numeric");
+  CHECK(once.updateOrThrow().deformationWork == "analysis");
+  CHECK((interactive.positions() - once.positions()).cwiseAbs().maxCoeff() < 1e-9);
+}
+
+TEST_CASE("edit engine: updateOrThrow rethrows the failure's own exception", "[engine]") {
+  const Mesh bar = shipped("bar.obj");
+  EditEngine engine(bar);
+  EditParams p;
+  p.scheme = WeightScheme::Given;
+  p.regularization = Regularization::Nonuniform;
+  p.givenWeights = Eigen::VectorXd::Constant(bar.numVertices(), 2.0);  // outside [0, 1]
+  engine.setEdit(barHandles(bar, 1.0), p);
+  CHECK_THROWS_AS(engine.updateOrThrow(), InvalidParameter);
+  CHECK_FALSE(engine.lastUpdate().solved);
+  CHECK(engine.positions() == bar.positions());  // the previous results are kept
+
+  // Given weights of the wrong length are refused by validation, naming them.
+  p.givenWeights = Eigen::VectorXd::Zero(3);
+  CHECK_THROWS_WITH(engine.setEdit(barHandles(bar, 1.0), p), Catch::Contains("given weights"));
 }

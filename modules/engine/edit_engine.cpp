@@ -1,4 +1,4 @@
-#include <diffreg/serve/session.h>
+#include <diffreg/engine/edit_engine.h>
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/timer.h>
@@ -44,7 +44,8 @@ bool sameDiffusion(const DiffusionParams& a, const DiffusionParams& b) {
 }
 
 bool sameRbf(const RbfSettings& a, const RbfSettings& b) {
-  return a.distance == b.distance && a.sigma == b.sigma && a.clamp == b.clamp;
+  return a.distance == b.distance && a.sigma == b.sigma && a.sigmaAbsolute == b.sigmaAbsolute &&
+         a.clamp == b.clamp;
 }
 
 bool sameRangesAndMagnitudes(const EditState& a, const EditState& b) {
@@ -79,32 +80,52 @@ struct TrackedDeformation {
   }
 };
 
+/// How a tracked deformation's sessions are made.
+struct SessionSetup {
+  const Discretization& disc;
+  const EngineSettings& settings;
+  const std::function<void(int, double, double)>* progress;  // null: none (the reference)
+};
+
 /// Brings `tracked` in line with `want` at the least cost: a new session for a new energy, local
-/// step or acceleration; new handles, targets or regularization (`regularized`: the edit's own,
+/// step, acceleration or history, or when the regularization needs the facet couplings the
+/// session did not reserve; new handles, targets or regularization (`regularized`: the edit's own,
 /// from `weights`; otherwise none); then a solve, a continued drag (only targets moved, with
 /// continueDrags) or, when `refine` and nothing changed, a resumed unconverged run. Returns
 /// whether it solved (then `result` holds the run) and the solver work in `work`.
-bool syncDeformation(const Discretization& disc, SolverBackend backend, TrackedDeformation& tracked,
-                     const EditState& want, bool regularized, const Eigen::VectorXd& weights,
-                     long weightsSerial, bool refine, DeformationResult& result,
-                     SolverStats& work) {
+bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, const EditState& want,
+                     bool regularized, const Eigen::VectorXd& weights, long weightsSerial,
+                     bool refine, DeformationResult& result, SolverStats& work) {
   const EditParams& p = want.params;
   const std::optional<EditState>& had = tracked.synced;
+  const Regularization mode = regularized ? p.regularization : Regularization::None;
   const bool fresh = !tracked.session || !had || had->params.energy != p.energy ||
                      had->params.localStep != p.localStep ||
-                     had->params.acceleration != p.acceleration;
+                     had->params.acceleration != p.acceleration ||
+                     had->params.history != p.history ||
+                     (mode != Regularization::None &&
+                      !tracked.session->options().reserveRegularization);
   if (fresh) {
     DeformationOptions options;
     options.energy = p.energy;
-    options.regularization = regularized ? p.regularization : Regularization::None;
+    options.regularization = mode;
     options.beta = p.beta;
     options.localStep = p.localStep;
     options.acceleration = p.acceleration;
+    options.history = p.history;
     if (options.regularization == Regularization::Nonuniform) options.weights = weights;
-    // The reference is never regularized: the smaller pattern.
-    options.reserveRegularization = regularized;
-    options.backend = backend;
-    tracked.session = std::make_unique<DeformationSession>(disc, options);
+    // The reference is never regularized: the smaller pattern. So is a one-shot unregularized
+    // edit; the editor's may become regularized later.
+    options.reserveRegularization =
+        regularized && (setup.settings.interactive || mode != Regularization::None);
+    options.backend = setup.settings.backend;
+    if (setup.progress != nullptr) {
+      const std::function<void(int, double, double)>* progress = setup.progress;
+      options.progress = [progress](int iteration, double energy, double criterion) {
+        if (*progress) (*progress)(iteration, energy, criterion);
+      };
+    }
+    tracked.session = std::make_unique<DeformationSession>(setup.disc, options);
     tracked.weightsSerial = weightsSerial;
   }
   DeformationSession& session = *tracked.session;
@@ -159,28 +180,35 @@ bool syncDeformation(const Discretization& disc, SolverBackend backend, TrackedD
 }  // namespace
 
 /// The systems and the state each was last brought in line with.
-struct EditSession::Systems {
+struct EditEngine::Systems {
   std::unique_ptr<DiffusionWeights> diffusion;
   std::optional<EditState> diffusionSynced;
+  Eigen::VectorXd diffused;  // the diffusion's last weights
   std::optional<EditState> rbfSynced;
   long weightsSerial = 0;  // incremented whenever the weights change
   TrackedDeformation deform, reference;
 };
 
-EditSession::EditSession(Mesh mesh, SolverBackend backend)
+EditEngine::EditEngine(Mesh mesh, EngineSettings settings)
+    : EditEngine(mesh, std::make_shared<const Discretization>(mesh), settings) {}
+
+EditEngine::EditEngine(Mesh mesh, std::shared_ptr<const Discretization> disc,
+                       EngineSettings settings)
     : mesh_(std::move(mesh)),
-      disc_(std::make_unique<Discretization>(mesh_)),
-      backend_(backend),
+      disc_(std::move(disc)),
+      settings_(settings),
       systems_(std::make_unique<Systems>()) {
+  if (!disc_ || disc_->numVertices() != mesh_.numVertices())
+    throw InvalidParameter("edit engine: the discretization is not of this mesh");
   positions_ = mesh_.positions();
   weights_ = Eigen::VectorXd::Zero(disc_->numVertices());
   distortion_ = Eigen::VectorXd::Zero(disc_->numElements());
   smoothness_ = Eigen::VectorXd::Zero(disc_->numElements());
 }
 
-EditSession::~EditSession() = default;
+EditEngine::~EditEngine() = default;
 
-void EditSession::validate(const EditState& s) const {
+void EditEngine::validate(const EditState& s) const {
   const int n = disc_->numVertices();
   const std::vector<bool>& active = disc_->active();
   const Eigen::MatrixXd rest = mesh_.positions();
@@ -209,6 +237,12 @@ void EditSession::validate(const EditState& s) const {
                                std::to_string(o));
       o = h.id;
     }
+    // Weights alone need no targets.
+    if (h.targets.size() == 0 && !s.params.deform && !s.params.reference) {
+      checkRange(name + ": range", h.range, 0.0, 1e6, true);
+      checkRange(name + ": magnitude", h.magnitude, 0.0, 1.0, false);
+      continue;
+    }
     if (h.targets.rows() != static_cast<Eigen::Index>(h.vertices.size()) || h.targets.cols() != 3)
       throw InvalidParameter(name + ": " + std::to_string(h.vertices.size()) +
                              " vertices need as many targets of 3 coordinates");
@@ -231,9 +265,13 @@ void EditSession::validate(const EditState& s) const {
   checkRange("sigma", p.rbf.sigma, kMinRbfSigma, kMaxRbfSigma, false);
   checkRange("iterations", p.iterations, 1, kMaxIterations, false);
   checkRange("tolerance", p.tolerance, 0.0, 1.0, false);
+  checkRange("history", p.history, 1, 100, false);
+  if (p.givenWeights.size() != 0 && p.givenWeights.size() != n)
+    throw InvalidParameter("given weights: " + std::to_string(p.givenWeights.size()) +
+                           " values for " + std::to_string(n) + " vertices");
 }
 
-void EditSession::setState(EditState state) {
+void EditEngine::setState(EditState state) {
   // Planar meshes: targets live in the mesh's plane.
   if (mesh_.kind() == MeshKind::Planar) {
     const Eigen::MatrixXd rest = mesh_.positions();
@@ -248,8 +286,11 @@ void EditSession::setState(EditState state) {
   ++version_;
 }
 
-void EditSession::setHandles(const HandleSet& handles) {
+void EditEngine::setHandles(const HandleSet& handles) { setEdit(handles, state_.params); }
+
+void EditEngine::setEdit(const HandleSet& handles, EditParams params) {
   EditState s = state_;
+  s.params = std::move(params);
   s.handles.clear();
   for (const Handle& h : handles.handles) {
     EditHandle e;
@@ -264,18 +305,19 @@ void EditSession::setHandles(const HandleSet& handles) {
   setState(std::move(s));
 }
 
-bool EditSession::refine() {
+bool EditEngine::refine() {
   if (computedVersion_ != version_) return true;  // the pending update solves anyway
   if (!last_.solved || last_.converged) return false;
   refine_ = true;
   return true;
 }
 
-UpdateReport EditSession::update() {
+UpdateReport EditEngine::update() {
   UpdateReport report;
   if (computedVersion_ == version_ && !refine_) {
     report.solved = last_.solved;
     report.message = last_.message;
+    report.failure = last_.failure;
     return report;
   }
   const Timer total;
@@ -289,6 +331,7 @@ UpdateReport EditSession::update() {
     report = UpdateReport{};
     report.solved = false;
     report.message = e.what();
+    report.failure = std::current_exception();
   }
   computedVersion_ = version_;
   refine_ = false;
@@ -300,7 +343,7 @@ UpdateReport EditSession::update() {
   return report;
 }
 
-void EditSession::compute(const EditState& want, UpdateReport& report) {
+void EditEngine::compute(const EditState& want, UpdateReport& report) {
   Systems& S = *systems_;
   const EditParams& p = want.params;
   const bool hasHandles = !want.handles.empty();
@@ -312,27 +355,33 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
   timer.reset();
   Eigen::MatrixXd positions = positions_;
   bool deformed = false;
-  if (!hasHandles) {
-    positions = mesh_.positions();
-    deformed = true;
-    S.deform.reset();
-    S.reference.reset();
+  if (!hasHandles || !p.deform) {
+    deformed = !computed_ || positions_ != mesh_.positions();
+    if (deformed) positions = mesh_.positions();
+    if (!hasHandles) {
+      S.deform.reset();
+      S.reference.reset();
+    }
     report.converged = true;
   } else {
+    const SessionSetup setup{*disc_, settings_, &progress_};
     DeformationResult result;
-    if (syncDeformation(*disc_, backend_, S.deform, want, true, weights, S.weightsSerial, refine_,
-                        result, report.deformation)) {
-      positions = mesh_.positions();
-      positions.leftCols(disc_->dim()) = result.positions;
-      report.iterations = result.iterations;
-      report.criterion = result.criterion;
-      report.initialGuess = result.initialGuess;
+    if (syncDeformation(setup, S.deform, want, true, weights, S.weightsSerial, refine_, result,
+                        report.deformation)) {
+      result.positions.resize(0, 0);  // kept in S.deform.positions
+      lastRun_ = std::move(result);
       deformed = true;
-    } else {
-      report.iterations = last_.iterations;
-      report.criterion = last_.criterion;
-      report.initialGuess = last_.initialGuess;
     }
+    // The shape of the deformation, also when it did not solve again (the shape may have
+    // been at rest for a state without deformation).
+    deformed = deformed || !computed_ || !computed_->params.deform;
+    if (deformed) {
+      positions = mesh_.positions();
+      positions.leftCols(disc_->dim()) = S.deform.positions;
+    }
+    report.iterations = lastRun_.iterations;
+    report.criterion = lastRun_.criterion;
+    report.initialGuess = lastRun_.initialGuess;
     report.converged = S.deform.converged;
     report.deformationWork = workOf(report.deformation);
   }
@@ -340,12 +389,12 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
 
   // The same edit without regularization, for Dist.
   timer.reset();
-  const bool wantReference = hasHandles && p.reference && p.regularization != Regularization::None;
   bool referenceChanged = false;
-  if (wantReference) {
+  if (wantsReference(want)) {
+    const SessionSetup setup{*disc_, settings_, nullptr};
     DeformationResult result;
-    referenceChanged = syncDeformation(*disc_, backend_, S.reference, want, false, weights,
-                                       S.weightsSerial, refine_, result, report.reference);
+    referenceChanged = syncDeformation(setup, S.reference, want, false, weights, S.weightsSerial,
+                                       refine_, result, report.reference);
     report.converged = report.converged && S.reference.converged;
     report.referenceWork = workOf(report.reference);
   } else {
@@ -354,19 +403,39 @@ void EditSession::compute(const EditState& want, UpdateReport& report) {
   }
   report.referenceSeconds = timer.seconds();
 
-  // Per-element maps and the Table-1 metrics.
+  // Per-element maps and the Table-1 metrics of a deformation.
   timer.reset();
   const bool paramsChanged = !computed_ || computed_->params.energy != p.energy ||
                              computed_->params.regularization != p.regularization ||
                              computed_->params.beta != p.beta ||
-                             computed_->params.reference != p.reference;
-  if (deformed || weightsChanged || referenceChanged || paramsChanged) computeMaps(want, positions);
+                             computed_->params.reference != p.reference ||
+                             computed_->params.metrics != p.metrics ||
+                             computed_->params.deform != p.deform;
+  if (deformed || weightsChanged || referenceChanged || paramsChanged) {
+    if (!hasHandles || p.deform) {
+      computeMaps(want, positions);
+    } else {
+      distortion_.setZero(disc_->numElements());
+      smoothness_.setZero(disc_->numElements());
+      metrics_ = DeformationMetrics{};
+    }
+  }
   report.metricsSeconds = timer.seconds();
   positions_ = positions;
   weights_ = weights;
 }
 
-bool EditSession::computeWeights(const EditState& want, Eigen::VectorXd& weights,
+bool EditEngine::wantsReference(const EditState& want) {
+  return !want.handles.empty() && want.params.reference &&
+         want.params.regularization != Regularization::None;
+}
+
+const Eigen::MatrixXd& EditEngine::referencePositions() const {
+  static const Eigen::MatrixXd none;
+  return computed_ && wantsReference(*computed_) ? systems_->reference.positions : none;
+}
+
+bool EditEngine::computeWeights(const EditState& want, Eigen::VectorXd& weights,
                                  UpdateReport& report) {
   Systems& S = *systems_;
   const EditParams& p = want.params;
@@ -379,34 +448,50 @@ bool EditSession::computeWeights(const EditState& want, Eigen::VectorXd& weights
     S.rbfSynced.reset();
   } else if (p.scheme == WeightScheme::Diffusion) {
     S.rbfSynced.reset();
-    if (!S.diffusion) S.diffusion = std::make_unique<DiffusionWeights>(*disc_, backend_);
+    if (!S.diffusion)
+      S.diffusion = std::make_unique<DiffusionWeights>(*disc_, settings_.backend);
     const SolverStats before = S.diffusion->stats();
-    if (syncDiffusion(want)) {
-      weights = S.diffusion->solve();
+    const bool solved = syncDiffusion(want);
+    if (solved) {
+      S.diffused = S.diffusion->solve();
+      report.diffusionSolve = S.diffusion->lastSolve();
+    }
+    // The diffusion keeps its state while other schemes are used; its weights come back.
+    if (weights.size() != S.diffused.size() || weights != S.diffused) {
+      weights = S.diffused;
       changed = true;
     }
+    report.absoluteTime = S.diffusion->absoluteTime();
     S.diffusionSynced = want;
     report.weights = S.diffusion->stats() - before;
     report.weightsWork = workOf(report.weights);
     // New weights without a solve: a magnitude applied by superposition (DiffusionWeights).
-    if (changed && report.weightsWork == "none") report.weightsWork = "superpose";
-  } else {
-    S.diffusionSynced.reset();
+    if (solved && report.weightsWork == "none") report.weightsWork = "superpose";
+  } else if (p.scheme == WeightScheme::Rbf) {
     const std::optional<EditState>& had = S.rbfSynced;
+    report.absoluteSigma =
+        p.rbf.sigmaAbsolute ? p.rbf.sigma : rbfSigmaFromDiagonal(mesh_, p.rbf.sigma);
     if (!had || vertexSets(*had) != vertexSets(want) || !sameRangesAndMagnitudes(*had, want) ||
         !sameRbf(had->params.rbf, p.rbf)) {
-      const double sigma = rbfSigmaFromDiagonal(mesh_, p.rbf.sigma);
-      weights = rbfWeights(mesh_, toHandleSet(want), sigma, p.rbf.distance, p.rbf.clamp);
+      weights = rbfWeights(mesh_, toHandleSet(want), report.absoluteSigma, p.rbf.distance,
+                           p.rbf.clamp);
       changed = true;
       report.weightsWork = "evaluate";
     }
     S.rbfSynced = want;
+  } else {  // given
+    S.rbfSynced.reset();
+    const Eigen::VectorXd given = p.givenWeights.size() == 0
+                                      ? Eigen::VectorXd::Zero(disc_->numVertices())
+                                      : p.givenWeights;
+    changed = weights.size() != given.size() || weights != given;
+    if (changed) weights = given;
   }
   if (changed) ++S.weightsSerial;
   return changed;
 }
 
-bool EditSession::syncDiffusion(const EditState& want) {
+bool EditEngine::syncDiffusion(const EditState& want) {
   Systems& S = *systems_;
   DiffusionWeights& diffusion = *S.diffusion;
   const std::optional<EditState>& had = S.diffusionSynced;
@@ -439,19 +524,20 @@ bool EditSession::syncDiffusion(const EditState& want) {
   return dirty;
 }
 
-void EditSession::computeMaps(const EditState& want, const Eigen::MatrixXd& positions) {
+void EditEngine::computeMaps(const EditState& want, const Eigen::MatrixXd& positions) {
   const Systems& S = *systems_;
   const EditParams& p = want.params;
   const Eigen::MatrixXd X = positions.leftCols(disc_->dim());
-  const bool hasHandles = !want.handles.empty();
-  const RegularizationWeights regWeights =
-      hasHandles ? S.deform.session->regularizationWeights()
-                 : makeRegularizationWeights(*disc_, p.regularization, p.beta,
-                                             Eigen::VectorXd::Zero(disc_->numVertices()));
-  const bool wantReference = hasHandles && p.reference && p.regularization != Regularization::None;
+  std::optional<RegularizationWeights> restWeights;  // without handles: no session
+  if (!S.deform.session)
+    restWeights = makeRegularizationWeights(*disc_, p.regularization, p.beta,
+                                            Eigen::VectorXd::Zero(disc_->numVertices()));
+  const RegularizationWeights& regWeights =
+      restWeights ? *restWeights : S.deform.session->regularizationWeights();
   const Eigen::MatrixXd* reference = nullptr;
-  if (p.reference) reference = wantReference ? &S.reference.positions : &X;
-  DeformationMetrics metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference);
+  if (p.reference) reference = wantsReference(want) ? &S.reference.positions : &X;
+  DeformationMetrics metrics;
+  if (p.metrics) metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference);
   Eigen::VectorXd distortion = elementDistortion(*disc_, p.energy, X);
   Eigen::VectorXd smoothness = elementSmoothness(*disc_, facetSmoothness(*disc_, p.energy, X));
   metrics_ = metrics;
@@ -459,7 +545,33 @@ void EditSession::computeMaps(const EditState& want, const Eigen::MatrixXd& posi
   smoothness_ = std::move(smoothness);
 }
 
-HandleSet EditSession::handleSet() const { return toHandleSet(state_); }
+UpdateReport EditEngine::updateOrThrow() {
+  UpdateReport report = update();
+  if (!report.solved) {
+    if (report.failure) std::rethrow_exception(report.failure);
+    throw InvalidParameter(report.message);
+  }
+  return report;
+}
+
+EditParams editParamsOf(const DeformationOptions& options) {
+  EditParams p;
+  p.energy = options.energy;
+  p.regularization = options.regularization;
+  p.beta = options.beta;
+  p.scheme = WeightScheme::Given;
+  p.givenWeights = options.weights;
+  p.iterations = options.maxIterations;
+  p.tolerance = options.relTolerance;
+  p.localStep = options.localStep;
+  p.acceleration = options.acceleration;
+  p.history = options.history;
+  p.reference = false;
+  p.metrics = false;
+  return p;
+}
+
+HandleSet EditEngine::handleSet() const { return toHandleSet(state_); }
 
 HandleSet toHandleSet(const EditState& state) {
   HandleSet set;
@@ -475,7 +587,7 @@ HandleSet toHandleSet(const EditState& state) {
   return set;
 }
 
-Mesh EditSession::resultMesh() const {
+Mesh EditEngine::resultMesh() const {
   Mesh out = mesh_;
   out.setPositions(positions_);
   out.setVertexScalar(prop::weight, weights_);
