@@ -170,9 +170,16 @@ TEST_CASE("Degenerate elements are rejected, naming the element", "[discretizati
   Eigen::MatrixXd P(4, 3);
   P << 0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0;
   Eigen::MatrixXi F(2, 3);
-  F << 0, 1, 3, 0, 1, 2;
+  F << 0, 1, 3, 2, 1, 0;  // the second has zero area
   CHECK_THROWS_AS(Discretization(MeshKind::Planar, P, F), InvalidMesh);
-  CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, F), Catch::Contains("triangle 1"));
+  CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, F),
+                    Catch::Contains("triangle 1") && Catch::Contains("degenerate"));
+  // Triangles that no oriented edge-manifold holds (edge 0-1 twice in the same direction)
+  // are named, not merged.
+  Eigen::MatrixXi twisted(2, 3);
+  twisted << 0, 1, 3, 0, 1, 2;
+  CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, twisted),
+                    Catch::Contains("triangle 1") && Catch::Contains("edge-manifold"));
   Eigen::MatrixXi bad(1, 3);
   bad << 0, 1, 9;
   CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, bad), Catch::Contains("out of range"));

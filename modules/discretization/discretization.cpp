@@ -1,6 +1,7 @@
 #include <diffreg/discretization/discretization.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/mesh/parse.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -40,15 +41,6 @@ struct FacetRecord {
 
 }  // namespace
 
-Discretization::Discretization(const Mesh& mesh) {
-  build(mesh.kind(), mesh.positions(), mesh.elements());
-}
-
-Discretization::Discretization(MeshKind kind, const Eigen::MatrixXd& positions,
-                               const Eigen::MatrixXi& elements) {
-  build(kind, positions, elements);
-}
-
 Eigen::MatrixXd Discretization::restFrame(int e) const {
   if (kind_ != MeshKind::Surface) return Eigen::MatrixXd::Identity(dim_, dim_);
   const Eigen::Vector3d n = normals_.row(e).transpose();
@@ -74,38 +66,31 @@ void checkElements(MeshKind kind, const Eigen::MatrixXd& positions,
                           std::to_string(n) + ")");
 }
 
-// The facet records of every element (for adjacency), sorted, and the mean length of the
-// unique edges (for triangles the facets are the edges).
-double facetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements, int k,
-                         std::vector<FacetRecord>& records) {
-  const int m = static_cast<int>(elements.rows()), facetSize = k - 1;
-  records.reserve(static_cast<size_t>(m) * k);
+// Tets: the facet records of every tet (for adjacency), sorted, and the mean length of the
+// unique edges.
+double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements,
+                            std::vector<FacetRecord>& records) {
+  const int m = static_cast<int>(elements.rows());
+  records.reserve(static_cast<size_t>(m) * 4);
   std::vector<std::uint64_t> edges;  // (smaller id << 32) | larger id
   const auto edge = [](int a, int b) {
     return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
   };
-  if (k == 4) edges.reserve(static_cast<size_t>(m) * 6);
+  edges.reserve(static_cast<size_t>(m) * 6);
   for (int e = 0; e < m; ++e) {
-    for (int i = 0; i < k; ++i) {
+    for (int i = 0; i < 4; ++i) {
       FacetRecord r{{-1, -1, -1}, e};
       int c = 0;
-      for (int j = 0; j < k; ++j)
+      for (int j = 0; j < 4; ++j)
         if (j != i) r.key[c++] = elements(e, j);
-      std::sort(r.key.begin(), r.key.begin() + facetSize);
+      std::sort(r.key.begin(), r.key.end());
       records.push_back(r);
-      if (k == 4)
-        for (int j = i + 1; j < k; ++j) edges.push_back(edge(elements(e, i), elements(e, j)));
+      for (int j = i + 1; j < 4; ++j) edges.push_back(edge(elements(e, i), elements(e, j)));
     }
   }
   std::sort(records.begin(), records.end());
-  if (k == 3) {
-    for (size_t i = 0; i < records.size(); ++i)
-      if (i == 0 || !records[i].sameKey(records[i - 1]))
-        edges.push_back(edge(records[i].key[0], records[i].key[1]));
-  } else {
-    std::sort(edges.begin(), edges.end());
-    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   double edgeSum = 0.0;
   for (const std::uint64_t ab : edges)
     edgeSum += (P3.row(static_cast<Eigen::Index>(ab >> 32)) -
@@ -114,32 +99,51 @@ double facetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& eleme
   return edgeSum / static_cast<double>(edges.size());
 }
 
-// Interior facets from the sorted records: records with equal keys belong to neighbouring
-// elements; every pair of elements on a facet (exactly one pair on a manifold mesh).
-void interiorFacets(const Eigen::MatrixXd& P3, const std::vector<FacetRecord>& records,
-                    int facetSize,
-                    std::vector<Facet>& facets) {
+// Triangles: the interior edges of the OpenMesh mesh, each with its two faces (the smaller
+// index first) and its sorted vertices, in the mesh's edge order; returns the mean length of
+// all edges.
+double edgeFacets(const Eigen::MatrixXd& P3, const TriMesh& tri, std::vector<Facet>& facets) {
+  facets.clear();
+  facets.reserve(tri.n_edges());
+  double edgeSum = 0.0;
+  for (const auto eh : tri.edges()) {
+    const auto h0 = tri.halfedge_handle(eh, 0), h1 = tri.halfedge_handle(eh, 1);
+    const int a = tri.from_vertex_handle(h0).idx(), b = tri.to_vertex_handle(h0).idx();
+    const double length = (P3.row(a) - P3.row(b)).norm();
+    edgeSum += length;
+    const int f0 = tri.face_handle(h0).idx(), f1 = tri.face_handle(h1).idx();
+    if (f0 < 0 || f1 < 0) continue;  // a boundary edge
+    Facet f;
+    f.k = std::min(f0, f1);
+    f.l = std::max(f0, f1);
+    f.c = length;
+    f.size = 2;
+    f.vertices = {std::min(a, b), std::max(a, b), 0};
+    facets.push_back(f);
+  }
+  return edgeSum / static_cast<double>(tri.n_edges());
+}
+
+// Tets: interior facets from the sorted records: records with equal keys belong to
+// neighbouring tets; every pair of tets on a facet (exactly one pair on a manifold mesh).
+void interiorTetFacets(const Eigen::MatrixXd& P3, const std::vector<FacetRecord>& records,
+                       std::vector<Facet>& facets) {
   facets.clear();
   for (size_t i = 0; i < records.size();) {
     size_t j = i + 1;
     while (j < records.size() && records[j].sameKey(records[i])) ++j;
     const auto& key = records[i].key;
-    double c;
-    if (facetSize == 2) {
-      c = (P3.row(key[0]) - P3.row(key[1])).norm();
-    } else {
-      const Eigen::Vector3d a = (P3.row(key[1]) - P3.row(key[0])).transpose();
-      const Eigen::Vector3d b = (P3.row(key[2]) - P3.row(key[0])).transpose();
-      c = 0.5 * a.cross(b).norm();
-    }
+    const Eigen::Vector3d a = (P3.row(key[1]) - P3.row(key[0])).transpose();
+    const Eigen::Vector3d b = (P3.row(key[2]) - P3.row(key[0])).transpose();
+    const double c = 0.5 * a.cross(b).norm();
     for (size_t a = i; a < j; ++a)
       for (size_t b = a + 1; b < j; ++b) {
         Facet f;
         f.k = records[a].element;
         f.l = records[b].element;
         f.c = c;
-        f.size = facetSize;
-        for (int v = 0; v < facetSize; ++v) f.vertices[v] = key[v];
+        f.size = 3;
+        f.vertices = key;
         facets.push_back(f);
       }
     i = j;
@@ -224,7 +228,7 @@ void Discretization::buildComponents(const Eigen::MatrixXd& P3) {
 }
 
 void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
-                           const Eigen::MatrixXi& elements) {
+                           const Eigen::MatrixXi& elements, const TriMesh* topology) {
   kind_ = kind;
   dim_ = kind == MeshKind::Planar ? 2 : 3;
   const int k = kind == MeshKind::Tet ? 4 : 3;
@@ -235,15 +239,49 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   Eigen::MatrixXd P3 = Eigen::MatrixXd::Zero(positions.rows(), 3);
   P3.leftCols(cols) = positions.leftCols(cols);
 
-  std::vector<FacetRecord> records;
-  meanEdge_ = facetsAndMeanEdge(P3, elements, k, records);
+  std::vector<FacetRecord> records;  // tets: adjacency by sorting their facets
+  if (k == 4)
+    meanEdge_ = tetFacetsAndMeanEdge(P3, elements, records);
+  else
+    meanEdge_ = edgeFacets(P3, *topology, facets_);
   const double tinyMeasure = 1e-14 * std::pow(meanEdge_, kind == MeshKind::Tet ? 3 : 2);
   if (k == 4)
     buildElements<4>(P3, tinyMeasure);
   else
     buildElements<3>(P3, tinyMeasure);
-  interiorFacets(P3, records, k - 1, facets_);
+  if (k == 4) interiorTetFacets(P3, records, facets_);
   buildComponents(P3);
+}
+
+Discretization::Discretization(const Mesh& mesh) : Discretization(mesh, mesh.positions()) {}
+
+Discretization::Discretization(const Mesh& mesh, const Eigen::MatrixXd& positions) {
+  build(mesh.kind(), positions, mesh.elements(), mesh.isTet() ? nullptr : &mesh.tri());
+}
+
+Discretization::Discretization(MeshKind kind, const Eigen::MatrixXd& positions,
+                               const Eigen::MatrixXi& elements) {
+  if (kind == MeshKind::Tet) {
+    build(kind, positions, elements, nullptr);
+    return;
+  }
+  checkElements(kind, positions, elements, 3);
+  TriMesh tri;
+  OpenMeshQuiet quiet;  // add_face's complaints become our one-line error
+  tri.reserve(static_cast<size_t>(positions.rows()), static_cast<size_t>(elements.rows()) * 3 / 2,
+              static_cast<size_t>(elements.rows()));
+  for (Eigen::Index i = 0; i < positions.rows(); ++i) tri.add_vertex(TriMesh::Point(0, 0, 0));
+  for (Eigen::Index e = 0; e < elements.rows(); ++e) {
+    const TriMesh::FaceHandle f = tri.add_face(OpenMesh::VertexHandle(elements(e, 0)),
+                                               OpenMesh::VertexHandle(elements(e, 1)),
+                                               OpenMesh::VertexHandle(elements(e, 2)));
+    if (!f.is_valid())
+      throw InvalidMesh("discretization: triangle " + std::to_string(e) +
+                        " does not fit an oriented edge-manifold mesh (an edge with a third "
+                        "triangle, an edge in the same direction twice, or a repeated vertex); "
+                        "readMesh splits such triangles");
+  }
+  build(kind, positions, elements, &tri);
 }
 
 }  // namespace diffreg

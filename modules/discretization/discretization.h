@@ -25,10 +25,18 @@ struct Facet {
 
 class Discretization {
  public:
-  /// Builds everything from the rest mesh.
+  /// Builds everything from the rest mesh. On triangle meshes the neighbouring triangles are
+  /// found by walking the OpenMesh mesh's edges (each interior edge's two half-edges give its
+  /// two faces); on tet meshes by sorting the tets' facets.
   /// \throw InvalidMesh for a degenerate (zero-measure) element, naming it.
   explicit Discretization(const Mesh& mesh);
-  /// Same, from raw arrays: positions n x 3 and elements m x 3 or m x 4.
+  /// The same for `mesh`'s elements at other positions (n x 3), e.g. its rest shape after the
+  /// mesh has been deformed.
+  Discretization(const Mesh& mesh, const Eigen::MatrixXd& positions);
+  /// Same, from raw arrays: positions n x 3 and elements m x 3 or m x 4. Triangles are put into
+  /// an OpenMesh mesh first, so they must form an oriented edge-manifold (readMesh splits
+  /// vertices where a file's triangles do not).
+  /// \throw InvalidMesh also for a triangle that does not fit such a mesh, naming it.
   Discretization(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements);
 
   MeshKind kind() const { return kind_; }
@@ -77,7 +85,9 @@ class Discretization {
   double boundingBoxDiagonal() const { return diagonal_; }
 
  private:
-  void build(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements);
+  // `topology`: the triangles as an OpenMesh mesh (null for tets).
+  void build(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements,
+             const TriMesh* topology);
   template <int K>
   void buildElements(const Eigen::MatrixXd& P3, double tinyMeasure);
   void buildComponents(const Eigen::MatrixXd& P3);

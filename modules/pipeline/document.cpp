@@ -22,7 +22,7 @@ const Discretization& Document::restDiscretization() const {
     const Eigen::MatrixXi elements = mesh.elements();
     restCache_ = std::make_shared<const RestCache>(
         RestCache{mesh.kind(), rest, elements,
-                  std::make_shared<const Discretization>(mesh.kind(), rest, elements)});
+                  std::make_shared<const Discretization>(mesh, rest)});
   }
   return *restCache_->disc;
 }
