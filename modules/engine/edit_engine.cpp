@@ -87,6 +87,33 @@ struct SessionSetup {
   const std::function<void(int, double, double)>* progress;  // null: none (the reference)
 };
 
+/// A deformation session for `p` with regularization `mode` (`regularized`: the edit's own,
+/// else the reference, never regularized).
+std::unique_ptr<DeformationSession> newSession(const SessionSetup& setup, const EditParams& p,
+                                               Regularization mode, bool regularized,
+                                               const Eigen::VectorXd& weights) {
+  DeformationOptions options;
+  options.energy = p.energy;
+  options.regularization = mode;
+  options.beta = p.beta;
+  options.localStep = p.localStep;
+  options.acceleration = p.acceleration;
+  options.history = p.history;
+  if (options.regularization == Regularization::Nonuniform) options.weights = weights;
+  // The reference is never regularized: the smaller pattern. So is a one-shot unregularized
+  // edit; the editor's may become regularized later.
+  options.reserveRegularization =
+      regularized && (setup.settings.interactive || mode != Regularization::None);
+  options.backend = setup.settings.backend;
+  if (setup.progress != nullptr) {
+    const std::function<void(int, double, double)>* progress = setup.progress;
+    options.progress = [progress](int iteration, double energy, double criterion) {
+      if (*progress) (*progress)(iteration, energy, criterion);
+    };
+  }
+  return std::make_unique<DeformationSession>(setup.disc, options);
+}
+
 /// Brings `tracked` in line with `want` at the least cost: a new session for a new energy, local
 /// step, acceleration or history, or when the regularization needs the facet couplings the
 /// session did not reserve; new handles, targets or regularization (`regularized`: the edit's own,
@@ -106,26 +133,7 @@ bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, con
                      (mode != Regularization::None &&
                       !tracked.session->options().reserveRegularization);
   if (fresh) {
-    DeformationOptions options;
-    options.energy = p.energy;
-    options.regularization = mode;
-    options.beta = p.beta;
-    options.localStep = p.localStep;
-    options.acceleration = p.acceleration;
-    options.history = p.history;
-    if (options.regularization == Regularization::Nonuniform) options.weights = weights;
-    // The reference is never regularized: the smaller pattern. So is a one-shot unregularized
-    // edit; the editor's may become regularized later.
-    options.reserveRegularization =
-        regularized && (setup.settings.interactive || mode != Regularization::None);
-    options.backend = setup.settings.backend;
-    if (setup.progress != nullptr) {
-      const std::function<void(int, double, double)>* progress = setup.progress;
-      options.progress = [progress](int iteration, double energy, double criterion) {
-        if (*progress) (*progress)(iteration, energy, criterion);
-      };
-    }
-    tracked.session = std::make_unique<DeformationSession>(setup.disc, options);
+    tracked.session = newSession(setup, p, mode, regularized, weights);
     tracked.weightsSerial = weightsSerial;
   }
   DeformationSession& session = *tracked.session;
@@ -405,24 +413,28 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
 
   // Per-element maps and the Table-1 metrics of a deformation.
   timer.reset();
-  const bool paramsChanged = !computed_ || computed_->params.energy != p.energy ||
-                             computed_->params.regularization != p.regularization ||
-                             computed_->params.beta != p.beta ||
-                             computed_->params.reference != p.reference ||
-                             computed_->params.metrics != p.metrics ||
-                             computed_->params.deform != p.deform;
-  if (deformed || weightsChanged || referenceChanged || paramsChanged) {
-    if (!hasHandles || p.deform) {
-      computeMaps(want, positions);
-    } else {
-      distortion_.setZero(disc_->numElements());
-      smoothness_.setZero(disc_->numElements());
-      metrics_ = DeformationMetrics{};
-    }
-  }
+  if (deformed || weightsChanged || referenceChanged || mapsParamsChanged(want))
+    refreshMaps(want, positions);
   report.metricsSeconds = timer.seconds();
   positions_ = positions;
   weights_ = weights;
+}
+
+bool EditEngine::mapsParamsChanged(const EditState& want) const {
+  if (!computed_) return true;
+  const EditParams &p = want.params, &q = computed_->params;
+  return q.energy != p.energy || q.regularization != p.regularization || q.beta != p.beta ||
+         q.reference != p.reference || q.metrics != p.metrics || q.deform != p.deform;
+}
+
+void EditEngine::refreshMaps(const EditState& want, const Eigen::MatrixXd& positions) {
+  if (want.handles.empty() || want.params.deform) {
+    computeMaps(want, positions);
+  } else {
+    distortion_.setZero(disc_->numElements());
+    smoothness_.setZero(disc_->numElements());
+    metrics_ = DeformationMetrics{};
+  }
 }
 
 bool EditEngine::wantsReference(const EditState& want) {

@@ -251,6 +251,10 @@ class EditEngine {
   // Brings the diffusion's handles, ranges, magnitudes and parameters in line with `want`;
   // returns whether the weights must be solved again.
   bool syncDiffusion(const EditState& want);
+  // Whether the maps depend on a parameter that changed since the last computed state.
+  bool mapsParamsChanged(const EditState& want) const;
+  // computeMaps for a deformation (or the rest shape without handles), zeros without one.
+  void refreshMaps(const EditState& want, const Eigen::MatrixXd& positions);
   // Whether `want` asks for the unregularized reference (a regularized edit with handles).
   static bool wantsReference(const EditState& want);
   // distortion_, smoothness_ and metrics_ for the shape `positions` (n x 3).
