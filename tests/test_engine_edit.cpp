@@ -47,13 +47,15 @@ TEST_CASE("edit engine: each edit costs only what it must", "[engine]") {
   u = s.update();
   CHECK(u.weights.solves + u.deformation.solves + u.reference.solves == 0);
 
-  // m_j: the weights need a new right-hand side only; the deformation a new factorization
-  // (its regularization weights changed).
+  // m_j: the weights need no solve (the interactive engine kept every handle's own weights
+  // from the first solve); the deformation a new factorization (its regularization weights
+  // changed).
   state = s.state();
   state.handles[1].magnitude = 0.5;
   s.setState(state);
   u = s.update();
-  CHECK(u.weightsWork == "solve");
+  CHECK(u.weightsWork == "superpose");
+  CHECK(u.weights.solves == 0);
   CHECK(u.deformationWork == "numeric");
   CHECK(s.weights()[98] == Approx(0.5));
   CHECK(u.referenceWork == "none");  // the unregularized edit did not change

@@ -460,8 +460,11 @@ bool EditEngine::computeWeights(const EditState& want, Eigen::VectorXd& weights,
     S.rbfSynced.reset();
   } else if (p.scheme == WeightScheme::Diffusion) {
     S.rbfSynced.reset();
-    if (!S.diffusion)
+    if (!S.diffusion) {
       S.diffusion = std::make_unique<DiffusionWeights>(*disc_, settings_.backend);
+      // The editor's magnitude sliders: every m_j change a superposition from the start.
+      S.diffusion->setHandleBasis(settings_.interactive);
+    }
     const SolverStats before = S.diffusion->stats();
     const bool solved = syncDiffusion(want);
     if (solved) {

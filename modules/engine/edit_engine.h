@@ -8,7 +8,8 @@
 //   handles added or removed (vertex sets changed), energy changed -> symbolic analysis
 //   t, order, r_j, beta, weights field, regularization mode changed -> numeric factorization
 //   a handle moved (targets), m_j changed (for the weights)        -> right-hand side only
-//     (weights by pcg: a repeated change of one m_j -> "superpose", no solve)
+//     (weights by pcg: m_j changed -> "superpose", no solve; interactive engines solve every
+//     handle's own weights together at the first solve, one-shot ones on a first change)
 // Several edits between two updates cost one update (coalescing).
 #pragma once
 
@@ -97,6 +98,8 @@ struct EngineSettings {
   /// deformation's system reserves the facet couplings even without regularization (a switch
   /// then costs a numeric factorization, not an analysis). Off (a filter, a one-shot call):
   /// reserved only while regularized, so an unregularized solve keeps the smaller pattern.
+  /// Interactive diffused weights also keep every handle's own weights from their first solve
+  /// (DiffusionWeights::setHandleBasis), so that any change of a magnitude costs no solve.
   bool interactive = true;
 };
 

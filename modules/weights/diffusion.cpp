@@ -197,7 +197,13 @@ Eigen::VectorXd DiffusionWeights::solve() {
   lastSolve_ = DiffusionSolveInfo();
 
   const Eigen::VectorXd g = dirichlet(magnitudes_);
-  Eigen::VectorXd x = usesPcg() && previous_.size() > 0 ? superposed() : solveFor(g);
+  Eigen::VectorXd x;
+  if (usesPcg() && previous_.size() > 0)
+    x = superposed();
+  else if (usesPcg() && handleBasis_)
+    x = solveBasis();
+  else
+    x = solveFor(g);
   if (usesPcg()) {
     previous_ = x;
     previousMagnitudes_ = magnitudes_;
@@ -237,6 +243,26 @@ Eigen::VectorXd DiffusionWeights::superposed() {
   return x;
 }
 
+Eigen::VectorXd DiffusionWeights::solveBasis() {
+  const size_t handles = sets_.size();
+  Eigen::MatrixXd G(partition_.numFixed(), static_cast<Eigen::Index>(handles));
+  for (size_t j = 0; j < handles; ++j) {
+    std::vector<double> unit(handles, 0.0);
+    unit[j] = 1.0;
+    G.col(static_cast<Eigen::Index>(j)) = dirichlet(unit);
+  }
+  const Eigen::MatrixXd X = solveForColumns(G);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(X.rows());
+  for (size_t j = 0; j < handles; ++j) {
+    basis_[j].x = X.col(static_cast<Eigen::Index>(j));
+    basis_[j].info = lastSolve_;
+    x += magnitudes_[j] * basis_[j].x;
+  }
+  return x;
+}
+
+void DiffusionWeights::setHandleBasis(bool on) { handleBasis_ = on; }
+
 Eigen::VectorXd DiffusionWeights::dirichlet(const std::vector<double>& values) const {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
   for (size_t j = 0; j < sets_.size(); ++j)
@@ -245,22 +271,25 @@ Eigen::VectorXd DiffusionWeights::dirichlet(const std::vector<double>& values) c
 }
 
 Eigen::VectorXd DiffusionWeights::solveFor(const Eigen::VectorXd& g) {
-  const Eigen::VectorXd b = -(KFJ_ * g);
+  return solveForColumns(g).col(0);
+}
+
+Eigen::MatrixXd DiffusionWeights::solveForColumns(const Eigen::MatrixXd& G) {
+  const Eigen::MatrixXd b = -(KFJ_ * G);
   const double t = absoluteTime();
-  Eigen::VectorXd x;
+  Eigen::MatrixXd x;
   switch (params_.order) {
     case DiffusionOrder::First: x = solver_.solve(t * b); break;
     case DiffusionOrder::Second: {
-      const Eigen::VectorXd Nb = b.cwiseQuotient(N_);
-      const Eigen::VectorXd rhs = t * b + (0.5 * t * t) * (KFF_ * Nb);
-      x = usesPcg() ? solvePcg(rhs, t) : Eigen::VectorXd(solver_.solve(rhs));
+      const Eigen::MatrixXd Nb = N_.asDiagonal().inverse() * b;
+      const Eigen::MatrixXd rhs = t * b + (0.5 * t * t) * (KFF_ * Nb);
+      x = usesPcg() ? solvePcg(rhs, t) : solver_.solve(rhs);
       break;
     }
     case DiffusionOrder::ImplicitEuler: {
       const double h = t / params_.steps;
-      x = Eigen::VectorXd::Zero(partition_.numFree());
-      for (int s = 0; s < params_.steps; ++s)
-        x = solver_.solve(N_.cwiseProduct(x) + h * b);
+      x = Eigen::MatrixXd::Zero(partition_.numFree(), G.cols());
+      for (int s = 0; s < params_.steps; ++s) x = solver_.solve(N_.asDiagonal() * x + h * b);
       break;
     }
   }
@@ -272,51 +301,66 @@ Eigen::VectorXd DiffusionWeights::solveFor(const Eigen::VectorXd& g) {
 // through K and N without forming K N^-1 K; P^-1 y = S^-1 (N (S^-1 y)) costs two
 // back-substitutions against the factor of S. Per mode of N^-1 K with s = t lambda, P^-1 B has
 // the eigenvalue (1 + s + s^2/2) / (1 + sqrt(2) s + s^2/2) in [(2 + sqrt 2) / 4, 1].
-Eigen::VectorXd DiffusionWeights::solvePcg(const Eigen::VectorXd& rhs, double t) {
+Eigen::MatrixXd DiffusionWeights::solvePcg(const Eigen::MatrixXd& rhs, double t) {
   Timer timer;
   const double half = 0.5 * t * t;
-  auto applyB = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
-    const Eigen::VectorXd Kv = KFF_ * v;
-    return N_.cwiseProduct(v) + t * Kv + half * (KFF_ * Kv.cwiseQuotient(N_));
+  const auto Ninv = N_.asDiagonal().inverse();
+  auto applyB = [&](const Eigen::MatrixXd& v) -> Eigen::MatrixXd {
+    const Eigen::MatrixXd Kv = KFF_ * v;
+    return N_.asDiagonal() * v + t * Kv + half * (KFF_ * (Ninv * Kv));
   };
-  auto applyPinv = [&](const Eigen::VectorXd& v) -> Eigen::VectorXd {
-    const Eigen::VectorXd y = solver_.solve(v);
-    return solver_.solve(N_.cwiseProduct(y));
+  auto applyPinv = [&](const Eigen::MatrixXd& v) -> Eigen::MatrixXd {
+    const Eigen::MatrixXd y = solver_.solve(v);
+    return solver_.solve(N_.asDiagonal() * y);
   };
-  DiffusionSolveInfo& info = lastSolve_;
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(rhs.size());
-  const double rhsNorm = rhs.norm();
-  if (rhsNorm == 0.0) {  // all magnitudes 0, or no free vertex
-    info.cgSeconds = timer.seconds();
-    return x;
+  // One CG per column; the columns share the preconditioner's back-substitutions (one block
+  // solve each), and a column stops changing once it has converged.
+  const Eigen::Index cols = rhs.cols();
+  Eigen::MatrixXd x = Eigen::MatrixXd::Zero(rhs.rows(), cols);
+  const Eigen::VectorXd rhsNorm = rhs.colwise().norm().transpose();
+  std::vector<bool> active(static_cast<size_t>(cols));
+  Eigen::VectorXd relative = Eigen::VectorXd::Zero(cols);
+  for (Eigen::Index c = 0; c < cols; ++c) {
+    active[static_cast<size_t>(c)] = rhsNorm(c) > 0.0;  // 0: all magnitudes 0, or no free vertex
+    if (active[static_cast<size_t>(c)]) relative(c) = 1.0;
   }
-  Eigen::VectorXd r = rhs;
-  Eigen::VectorXd z = applyPinv(r);
-  Eigen::VectorXd p = z;
-  double rz = r.dot(z);
-  double relative = 1.0;
+  const auto anyActive = [&] { return std::find(active.begin(), active.end(), true) != active.end(); };
+  DiffusionSolveInfo& info = lastSolve_;
   int k = 0;
-  while (k < kDiffusionCgMaxIterations) {
-    const Eigen::VectorXd q = applyB(p);
-    const double alpha = rz / p.dot(q);
-    x += alpha * p;
-    r -= alpha * q;
-    ++k;
-    relative = r.norm() / rhsNorm;
-    if (relative <= kDiffusionCgTolerance) break;
-    z = applyPinv(r);
-    const double rzNext = r.dot(z);
-    p = z + (rzNext / rz) * p;
-    rz = rzNext;
+  if (anyActive()) {
+    Eigen::MatrixXd r = rhs;
+    Eigen::MatrixXd z = applyPinv(r);
+    Eigen::MatrixXd p = z;
+    Eigen::VectorXd rz = r.cwiseProduct(z).colwise().sum().transpose();
+    while (k < kDiffusionCgMaxIterations) {
+      const Eigen::MatrixXd q = applyB(p);
+      ++k;
+      for (Eigen::Index c = 0; c < cols; ++c) {
+        if (!active[static_cast<size_t>(c)]) continue;
+        const double alpha = rz(c) / p.col(c).dot(q.col(c));
+        x.col(c) += alpha * p.col(c);
+        r.col(c) -= alpha * q.col(c);
+        relative(c) = r.col(c).norm() / rhsNorm(c);
+        if (relative(c) <= kDiffusionCgTolerance) active[static_cast<size_t>(c)] = false;
+      }
+      if (!anyActive()) break;
+      z = applyPinv(r);
+      for (Eigen::Index c = 0; c < cols; ++c) {
+        if (!active[static_cast<size_t>(c)]) continue;
+        const double rzNext = r.col(c).dot(z.col(c));
+        p.col(c) = z.col(c) + (rzNext / rz(c)) * p.col(c);
+        rz(c) = rzNext;
+      }
+    }
   }
   info.cgIterations = k;
-  info.cgResidual = relative;
-  info.converged = relative <= kDiffusionCgTolerance;
+  info.cgResidual = relative.size() > 0 ? relative.maxCoeff() : 0.0;
+  info.converged = info.cgResidual <= kDiffusionCgTolerance;
   info.cgSeconds = timer.seconds();
   if (!info.converged) {
     std::ostringstream message;
     message << "weights: conjugate gradients stopped after " << k
-            << " iterations at relative residual " << relative << " (wanted "
+            << " iterations at relative residual " << info.cgResidual << " (wanted "
             << kDiffusionCgTolerance << ")";
     warn(message.str());
   }

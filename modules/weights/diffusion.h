@@ -128,7 +128,14 @@ class DiffusionWeights {
   /// Per-vertex weights x (size n): m_j at handle vertices, 0 at unreferenced vertices,
   /// clipped to [0, max m_j] unless params().clip is off.
   Eigen::VectorXd solve();
-  /// Factorizations and back-substitutions (a `pcg` solve makes two per CG iteration).
+  /// Keep every handle's own weights from the start (second order by `pcg` only): the first
+  /// solve under a new matrix runs one block CG for all handles together (m_j = 1, the others
+  /// 0, sharing each back-substitution), and every magnitude change after it, the first
+  /// included, is a superposition without a solve. For an editor; off (the default), the first
+  /// solve is one CG for the weights themselves and the first change of each m_j runs one more.
+  void setHandleBasis(bool on);
+  /// Factorizations and back-substitutions (a `pcg` solve makes two per CG iteration; a block
+  /// of right-hand sides counts as one).
   const SolverStats& stats() const { return solver_.stats(); }
   /// CG iterations and residual of the last solve().
   const DiffusionSolveInfo& lastSolve() const { return lastSolve_; }
@@ -143,11 +150,17 @@ class DiffusionWeights {
   bool usesPcg() const {
     return params_.order == DiffusionOrder::Second && params_.solve == DiffusionSolve::Pcg;
   }
-  Eigen::VectorXd solvePcg(const Eigen::VectorXd& rhs, double t);
+  // B X = rhs by one CG per column, sharing the preconditioner's block back-substitutions.
+  Eigen::MatrixXd solvePcg(const Eigen::MatrixXd& rhs, double t);
+  // Every handle's own weights into basis_ (one block solve); returns their combination by
+  // the magnitudes.
+  Eigen::VectorXd solveBasis();
   // Dirichlet values of the fixed vertices: values[j] on handle j, 0 on unreferenced vertices.
   Eigen::VectorXd dirichlet(const std::vector<double>& values) const;
   // The unclipped weights of the free vertices for Dirichlet values g (one full solve).
   Eigen::VectorXd solveFor(const Eigen::VectorXd& g);
+  // The same for several columns of Dirichlet values at once.
+  Eigen::MatrixXd solveForColumns(const Eigen::MatrixXd& G);
   // pcg: the weights are linear in the magnitudes, so while the matrix is unchanged the new
   // weights are the previous ones plus (m_j - previous m_j) times handle j's own weights,
   // solved on the first change of m_j and kept: dragging a magnitude costs one CG, then none.
@@ -173,6 +186,7 @@ class DiffusionWeights {
   };
   std::vector<HandleSolution> basis_;  // pcg: handle j's own weights, solved on demand
   bool partitionDirty_ = true, matrixDirty_ = true, productDirty_ = true;
+  bool handleBasis_ = false;
 };
 
 /// One-shot: diffused weights for `handles` on `disc`.
