@@ -310,11 +310,9 @@ DeformationMetrics measure(const MeshT& rest, MeshT& deformed,
   const DeformationMetrics metrics =
       measureDeformation(disc, options.energy, positions, weights,
                          reference != nullptr ? &referencePositions : nullptr);
-  const Eigen::VectorXd distortion = elementDistortion(disc, options.energy, positions);
-  const Eigen::VectorXd smoothness =
-      elementSmoothness(disc, facetSmoothness(disc, options.energy, positions));
-  detail::writeFaceDoubles(deformed, prop::distortion, distortion);
-  detail::writeFaceDoubles(deformed, prop::smoothness, smoothness);
+  const ElementMaps maps = elementMaps(disc, options.energy, positions);
+  detail::writeFaceDoubles(deformed, prop::distortion, maps.distortion);
+  detail::writeFaceDoubles(deformed, prop::smoothness, maps.smoothness);
   return metrics;
 }
 

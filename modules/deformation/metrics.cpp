@@ -49,6 +49,14 @@ Eigen::VectorXd elementSmoothness(const Discretization& disc, const Eigen::Vecto
   return s;
 }
 
+ElementMaps elementMaps(const Discretization& disc, Energy energy,
+                        const Eigen::MatrixXd& positions) {
+  checkPositions(disc, positions);
+  const ResidualModel model(disc, energy);
+  const Eigen::MatrixXd e = model.residuals(positions);
+  return {model.distortion(e), elementSmoothness(disc, model.facetDifference(e))};
+}
+
 int countInverted(const Discretization& disc, const Eigen::MatrixXd& X) {
   checkPositions(disc, X);
   const Eigen::MatrixXi& el = disc.elements();

@@ -22,6 +22,14 @@ Eigen::VectorXd facetSmoothness(const Discretization& disc, Energy energy,
 /// neighbours): the element property diffreg:smoothness.
 Eigen::VectorXd elementSmoothness(const Discretization& disc, const Eigen::VectorXd& perFacet);
 
+/// The two per-element maps a deformation writes, from one evaluation of the residuals.
+struct ElementMaps {
+  Eigen::VectorXd distortion;  ///< elementDistortion: diffreg:distortion
+  Eigen::VectorXd smoothness;  ///< elementSmoothness of facetSmoothness: diffreg:smoothness
+};
+ElementMaps elementMaps(const Discretization& disc, Energy energy,
+                        const Eigen::MatrixXd& positions);
+
 /// Elements with det F_k <= 0 (planar, tets). Surfaces: deformed normal . (R_k n_k) <= 0 with
 /// R_k the closest rotation to F_k; a triangle cannot invert within its own plane, so on
 /// surfaces this counts collapsed (zero-area) triangles.

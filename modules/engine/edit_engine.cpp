@@ -553,11 +553,10 @@ void EditEngine::computeMaps(const EditState& want, const Eigen::MatrixXd& posit
   if (p.reference) reference = wantsReference(want) ? &S.reference.positions : &X;
   DeformationMetrics metrics;
   if (p.metrics) metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference);
-  Eigen::VectorXd distortion = elementDistortion(*disc_, p.energy, X);
-  Eigen::VectorXd smoothness = elementSmoothness(*disc_, facetSmoothness(*disc_, p.energy, X));
+  ElementMaps maps = elementMaps(*disc_, p.energy, X);
   metrics_ = metrics;
-  distortion_ = std::move(distortion);
-  smoothness_ = std::move(smoothness);
+  distortion_ = std::move(maps.distortion);
+  smoothness_ = std::move(maps.smoothness);
 }
 
 UpdateReport EditEngine::updateOrThrow() {

@@ -16,9 +16,9 @@ Eigen::MatrixXd currentPositions(const Document& doc, const Discretization& disc
 
 void writeElementMaps(Document& doc, const Discretization& disc, Energy energy,
                       const Eigen::MatrixXd& positions) {
-  doc.mesh.setElementScalar(prop::distortion, elementDistortion(disc, energy, positions));
-  doc.mesh.setElementScalar(prop::smoothness,
-                            elementSmoothness(disc, facetSmoothness(disc, energy, positions)));
+  const ElementMaps maps = elementMaps(disc, energy, positions);
+  doc.mesh.setElementScalar(prop::distortion, maps.distortion);
+  doc.mesh.setElementScalar(prop::smoothness, maps.smoothness);
 }
 
 }  // namespace diffreg
