@@ -6,6 +6,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/system.h>
 #include <diffreg/deformation/local_step.h>
 
 #include <catch2/catch.hpp>

@@ -23,9 +23,16 @@
 ///   gradient iterations against one factor) and diffreg::DeformationSession (new targets
 ///   cost one solve per iteration), both on a diffreg::Discretization of a diffreg::Mesh
 ///   (diffreg::fromOpenMesh, diffreg::readMesh or the shapes of mesh/shapes.h).
+/// - **The edit engine** diffreg::EditEngine: one rest mesh with its handles and parameters,
+///   keeping the weights, the deformation, its unregularized reference, the per-element maps
+///   and the metrics up to date at the least cost (the filters, the one-shot functions and the
+///   `diffreg serve` editor all run on it).
 /// - **Pipelines of filters**: diffreg::Pipeline with filter names and parameter maps from
 ///   diffreg::Registry::builtin(), run on a diffreg::Document; the same filters and parameter
 ///   tables as the `diffreg` command-line tool and its `.mlx` scripts.
+///
+/// Nothing else is declared: the residual operators, systems, solvers and acceleration behind
+/// these levels stay in the library (tests/test_api_surface.cpp checks it).
 ///
 /// Every error is a diffreg::Error subclass (core/error.h) with a one-line message naming the
 /// file, element or parameter at fault. `<diffreg/version.h>` defines DIFFREG_VERSION_MAJOR,
@@ -36,8 +43,9 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/deformer.h>
-#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/options.h>
 #include <diffreg/deformation/metrics.h>
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/handles/handles.h>
 #include <diffreg/mesh/io.h>
@@ -48,7 +56,7 @@
 #include <diffreg/pipeline/params.h>
 #include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
-#include <diffreg/solver/solver.h>
+#include <diffreg/solver/backend.h>
 #include <diffreg/weights/diffusion.h>
 #include <diffreg/weights/rbf.h>
 

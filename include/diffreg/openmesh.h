@@ -16,7 +16,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/deformer.h>
-#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/options.h>
 #include <diffreg/deformation/metrics.h>
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/engine/edit_engine.h>

@@ -1,4 +1,5 @@
 #include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/session_core.h>
 
 #include <diffreg/core/error.h>
 
@@ -9,8 +10,7 @@
 
 namespace diffreg {
 
-DeformationSession::DeformationSession(const Discretization& disc,
-                                       const DeformationOptions& options)
+DeformationCore::DeformationCore(const Discretization& disc, const DeformationOptions& options)
     : disc_(disc),
       options_(options),
       model_(disc, options.energy),
@@ -23,9 +23,9 @@ DeformationSession::DeformationSession(const Discretization& disc,
   setRegularization(options.regularization, options.beta, options.weights);
 }
 
-DeformationSession::~DeformationSession() = default;
+DeformationCore::~DeformationCore() = default;
 
-void DeformationSession::setHandles(const std::vector<int>& vertices) {
+void DeformationCore::setHandles(const std::vector<int>& vertices) {
   if (vertices.empty()) throw InvalidParameter("deformation: the handle set is empty");
   std::vector<bool> seen(static_cast<size_t>(disc_.numVertices()), false);
   for (int v : vertices) {
@@ -46,7 +46,7 @@ void DeformationSession::setHandles(const std::vector<int>& vertices) {
   if (initSystem_) initSystem_->setHandles(vertices);
 }
 
-void DeformationSession::setTargets(const Eigen::MatrixXd& targets) {
+void DeformationCore::setTargets(const Eigen::MatrixXd& targets) {
   const int d = disc_.dim();
   if (targets.rows() != static_cast<Eigen::Index>(handles_.size()) || targets.cols() < d ||
       targets.cols() > 3)
@@ -59,7 +59,7 @@ void DeformationSession::setTargets(const Eigen::MatrixXd& targets) {
   resumable_ = false;
 }
 
-void DeformationSession::setRegularization(Regularization mode, double beta,
+void DeformationCore::setRegularization(Regularization mode, double beta,
                                            const Eigen::VectorXd& weights) {
   const RegularizationWeights w = makeRegularizationWeights(disc_, mode, beta, weights);
   options_.regularization = mode;
@@ -72,23 +72,23 @@ void DeformationSession::setRegularization(Regularization mode, double beta,
   if (initSystem_) initSystem_->setWeights(w);
 }
 
-void DeformationSession::setBeta(double beta) { setRegularization(Regularization::Uniform, beta); }
+void DeformationCore::setBeta(double beta) { setRegularization(Regularization::Uniform, beta); }
 
-void DeformationSession::setWeights(const Eigen::VectorXd& weights) {
+void DeformationCore::setWeights(const Eigen::VectorXd& weights) {
   setRegularization(Regularization::Nonuniform, 0.0, weights);
 }
 
-SolverStats DeformationSession::stats() const {
+SolverStats DeformationCore::stats() const {
   SolverStats s = system_.stats();
   if (initSystem_) s += initSystem_->stats();
   return s;
 }
 
-DeformationResult DeformationSession::solve(int maxIterations, double relTolerance) {
+DeformationResult DeformationCore::solve(int maxIterations, double relTolerance) {
   return run(maxIterations, relTolerance, nullptr);
 }
 
-DeformationResult DeformationSession::solveFrom(const Eigen::MatrixXd& initial, int maxIterations,
+DeformationResult DeformationCore::solveFrom(const Eigen::MatrixXd& initial, int maxIterations,
                                                 double relTolerance) {
   const int d = disc_.dim();
   if (initial.rows() != disc_.numVertices() || initial.cols() != d)
@@ -101,7 +101,7 @@ DeformationResult DeformationSession::solveFrom(const Eigen::MatrixXd& initial, 
   return run(maxIterations, relTolerance, &initial);
 }
 
-Eigen::MatrixXd DeformationSession::restSolve() {
+Eigen::MatrixXd DeformationCore::restSolve() {
   // The rest targets and their right-hand side change only with the weights: every handle move
   // starts from them (the first global step of the iterative energies, the only one of the
   // linear energies).
@@ -110,19 +110,19 @@ Eigen::MatrixXd DeformationSession::restSolve() {
   return system_.solveRightHandSide(restRhs_, targets_);
 }
 
-double DeformationSession::local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
+double DeformationCore::local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
   const double E = localStep(model_, system_.regularizer(), options_.localStep, X, t, e, F_);
   if (!std::isfinite(E))
     throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
   return E;
 }
 
-void DeformationSession::report(const DeformationResult& result) const {
+void DeformationCore::report(const DeformationResult& result) const {
   if (options_.progress)
     options_.progress(result.iterations, result.energies.back(), result.criterion);
 }
 
-double DeformationSession::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X,
+double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X,
                                  DeformationResult& result) {
   t_.resize(0, 0);  // the first local step fits every target to its own element first
   if (initial) {
@@ -151,7 +151,7 @@ double DeformationSession::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd
   return E;
 }
 
-void DeformationSession::iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X,
+void DeformationCore::iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X,
                                           double E, DeformationResult& result) {
   while (result.iterations < maxIterations) {
     X = system_.solve(t_, targets_);
@@ -168,7 +168,7 @@ void DeformationSession::iterateReference(int maxIterations, double tolerance, E
   }
 }
 
-void DeformationSession::descend(int maxIterations, double tolerance, Eigen::MatrixXd& X,
+void DeformationCore::descend(int maxIterations, double tolerance, Eigen::MatrixXd& X,
                                  double E, DeformationResult& result) {
   AndersonMixer& mixer = anderson_;
   const bool accelerate = options_.acceleration == Acceleration::Anderson;
@@ -202,7 +202,7 @@ void DeformationSession::descend(int maxIterations, double tolerance, Eigen::Mat
   }
 }
 
-void DeformationSession::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next,
+void DeformationCore::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next,
                                  Eigen::MatrixXd& nextT, Eigen::MatrixXd& nextE, double energy,
                                  double& E, DeformationResult& result) {
   X.swap(next);
@@ -213,12 +213,12 @@ void DeformationSession::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next,
   ++result.iterations;
 }
 
-double DeformationSession::plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
+double DeformationCore::plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
   X = system_.solve(t, targets_);
   return local(X, t, e);
 }
 
-Eigen::MatrixXd DeformationSession::gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t) {
+Eigen::MatrixXd DeformationCore::gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t) {
   Eigen::MatrixXd b;
   system_.rightHandSide(t, b);
   Eigen::MatrixXd g = system_.matrix() * X;
@@ -227,7 +227,7 @@ Eigen::MatrixXd DeformationSession::gradient(const Eigen::MatrixXd& X, const Eig
   return g;
 }
 
-void DeformationSession::descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X,
+void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X,
                                       double E, DeformationResult& result) {
   constexpr double kArmijo = 1e-4;
   constexpr int kBacktracks = 6;
@@ -279,11 +279,11 @@ void DeformationSession::descendLbfgs(int maxIterations, double tolerance, Eigen
   }
 }
 
-DeformationResult DeformationSession::resume(int maxIterations, double relTolerance) {
+DeformationResult DeformationCore::resume(int maxIterations, double relTolerance) {
   return run(maxIterations, relTolerance, nullptr, true);
 }
 
-DeformationResult DeformationSession::run(int maxIterations, double relTolerance,
+DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
                                           const Eigen::MatrixXd* initial, bool resume) {
   if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
   if (maxIterations < 1)
@@ -337,5 +337,39 @@ DeformationResult deform(const Discretization& disc, const DeformationOptions& o
   session.setTargets(targets);
   return session.solve();
 }
+
+// DeformationSession: the public face of DeformationCore.
+DeformationSession::DeformationSession(const Discretization& disc,
+                                       const DeformationOptions& options)
+    : core_(std::make_unique<DeformationCore>(disc, options)) {}
+DeformationSession::~DeformationSession() = default;
+DeformationSession::DeformationSession(DeformationSession&&) noexcept = default;
+DeformationSession& DeformationSession::operator=(DeformationSession&&) noexcept = default;
+void DeformationSession::setHandles(const std::vector<int>& vertices) {
+  core_->setHandles(vertices);
+}
+void DeformationSession::setTargets(const Eigen::MatrixXd& targets) { core_->setTargets(targets); }
+void DeformationSession::setRegularization(Regularization mode, double beta,
+                                           const Eigen::VectorXd& weights) {
+  core_->setRegularization(mode, beta, weights);
+}
+void DeformationSession::setBeta(double beta) { core_->setBeta(beta); }
+void DeformationSession::setWeights(const Eigen::VectorXd& weights) { core_->setWeights(weights); }
+DeformationResult DeformationSession::solve(int maxIterations, double relTolerance) {
+  return core_->solve(maxIterations, relTolerance);
+}
+DeformationResult DeformationSession::solveFrom(const Eigen::MatrixXd& initial, int maxIterations,
+                                                double relTolerance) {
+  return core_->solveFrom(initial, maxIterations, relTolerance);
+}
+DeformationResult DeformationSession::resume(int maxIterations, double relTolerance) {
+  return core_->resume(maxIterations, relTolerance);
+}
+const DeformationOptions& DeformationSession::options() const { return core_->options(); }
+const RegularizationWeights& DeformationSession::regularizationWeights() const {
+  return core_->regularizationWeights();
+}
+const SparseMatrix& DeformationSession::systemMatrix() const { return core_->systemMatrix(); }
+SolverStats DeformationSession::stats() const { return core_->stats(); }
 
 }  // namespace diffreg

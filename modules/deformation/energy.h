@@ -14,7 +14,7 @@
 //    energy does not penalize.
 #pragma once
 
-#include <diffreg/core/names.h>
+#include <diffreg/deformation/options.h>
 #include <diffreg/discretization/discretization.h>
 
 #include <Eigen/Core>
@@ -22,42 +22,6 @@
 #include <vector>
 
 namespace diffreg {
-
-enum class Energy {
-  Arap,       ///< as-rigid-as-possible, F - R (local/global)
-  Asap,       ///< as-similar-as-possible, F - closest similarity (linear in 2D)
-  Larap,      ///< linearized ARAP, sym(F) - I (linear, coordinates coupled)
-  Dirichlet,  ///< F - I
-};
-
-enum class Regularization {
-  None,        ///< plain energy
-  Uniform,     ///< (1 - beta) sum a_k D_k + beta S                          (paper eq. 2)
-  Nonuniform,  ///< per-element and per-facet beta from vertex weights       (paper eq. 3)
-};
-
-template <>
-struct EnumTable<Energy> {
-  static constexpr const char* parameter = "energy";
-  static constexpr const char* noun = "energy";
-  static constexpr EnumName<Energy> names[] = {
-      {Energy::Arap, "arap"},
-      {Energy::Asap, "asap"},
-      {Energy::Larap, "larap"},
-      {Energy::Dirichlet, "dirichlet"},
-  };
-};
-
-template <>
-struct EnumTable<Regularization> {
-  static constexpr const char* parameter = "regularization";
-  static constexpr const char* noun = "mode";
-  static constexpr EnumName<Regularization> names[] = {
-      {Regularization::None, "none"},
-      {Regularization::Uniform, "uniform"},
-      {Regularization::Nonuniform, "nonuniform"},
-  };
-};
 
 /// One energy: what its residual removes from F_k and how it fits its targets.
 class EnergyModel {

@@ -11,28 +11,13 @@
 //    regularizer this is not a minimization in T_k and local/global is not a descent method.
 #pragma once
 
-#include <diffreg/core/names.h>
+#include <diffreg/deformation/options.h>
 #include <diffreg/deformation/regularizer.h>
 #include <diffreg/deformation/residual_model.h>
 
 #include <string>
 
 namespace diffreg {
-
-enum class LocalStep {
-  Exact,      ///< block coordinate descent on eq. 3 (coloured Gauss-Seidel)
-  Reference,  ///< each target fitted to its own F_k (the reference code; not a descent method)
-};
-
-template <>
-struct EnumTable<LocalStep> {
-  static constexpr const char* parameter = "local_step";
-  static constexpr const char* noun = "local step";
-  static constexpr EnumName<LocalStep> names[] = {
-      {LocalStep::Exact, "exact"},
-      {LocalStep::Reference, "reference"},
-  };
-};
 
 /// Gauss-Seidel sweeps of one exact local step. The coupling of the targets across facets
 /// makes smooth changes of the rotation field travel one element per sweep; measured on a

@@ -2,6 +2,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/local_step.h>
+#include <diffreg/deformation/residual_model.h>
 #include <diffreg/deformation/rotation.h>
 
 #include <Eigen/Dense>

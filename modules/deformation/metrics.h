@@ -2,7 +2,7 @@
 // functions of a discretization, an energy and positions, usable outside any pipeline.
 #pragma once
 
-#include <diffreg/deformation/residual_model.h>
+#include <diffreg/deformation/options.h>
 
 #include <Eigen/Core>
 #include <optional>

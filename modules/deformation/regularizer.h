@@ -18,21 +18,6 @@
 
 namespace diffreg {
 
-/// beta_k per element and beta_kl per facet (in the order of Discretization::facets()).
-struct RegularizationWeights {
-  Eigen::VectorXd element;
-  Eigen::VectorXd facet;
-};
-
-/// Regularization weights for a mode: none -> all 0; uniform -> all `beta`; nonuniform ->
-/// beta_k = mean of `vertexWeights` over the element's vertices and beta_kl = mean over the
-/// facet's vertices. `beta` is used only by uniform, `vertexWeights` only by nonuniform.
-/// \throw InvalidParameter for beta outside [0, 1], or vertex weights of the wrong size, not
-/// finite or outside [0, 1] (naming the first bad vertex).
-RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regularization mode,
-                                                double beta,
-                                                const Eigen::VectorXd& vertexWeights = {});
-
 class Regularizer {
  public:
   /// Element-facet incidence of `disc` (which must outlive this); no regularization.

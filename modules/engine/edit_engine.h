@@ -18,7 +18,7 @@
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/handles/handles.h>
 #include <diffreg/mesh/mesh.h>
-#include <diffreg/solver/solver.h>
+#include <diffreg/solver/backend.h>
 #include <diffreg/weights/diffusion.h>
 #include <diffreg/weights/rbf.h>
 

@@ -4,7 +4,7 @@
 
 #include <diffreg/pipeline/document.h>
 #include <diffreg/pipeline/params.h>
-#include <diffreg/solver/solver.h>
+#include <diffreg/solver/backend.h>
 
 #include <nlohmann/json.hpp>
 #include <memory>

@@ -3,6 +3,8 @@
 // chosen per matrix) when built with it, Eigen's SimplicialLDLT otherwise.
 #pragma once
 
+#include <diffreg/solver/backend.h>
+
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
@@ -10,29 +12,6 @@
 #include <vector>
 
 namespace diffreg {
-
-using SparseMatrix = Eigen::SparseMatrix<double>;
-
-/// What a solver has done: counts and seconds of each phase.
-struct SolverStats {
-  int symbolic = 0, numeric = 0, solves = 0;
-  double symbolicSeconds = 0.0, numericSeconds = 0.0, solveSeconds = 0.0;
-  SolverStats& operator+=(const SolverStats& o);
-};
-SolverStats operator-(const SolverStats& a, const SolverStats& b);
-
-/// What the last symbolic analysis chose, for reports and benchmarks.
-struct SolverInfo {
-  std::string method;           ///< e.g. "CHOLMOD supernodal LL^T", "CHOLMOD simplicial LL^T"
-  std::string ordering;         ///< fill-reducing ordering: "AMD", "METIS", ...
-  double factorNonZeros = 0.0;  ///< nnz(L) (CHOLMOD only, else 0)
-  double flops = 0.0;           ///< flops of the numeric factorization (CHOLMOD only, else 0)
-};
-
-enum class SolverBackend { Cholmod, Eigen };
-/// The backend this build uses by default.
-SolverBackend defaultSolverBackend();
-const char* toString(SolverBackend backend);
 
 /// Cholesky of a symmetric positive definite matrix (lower triangle used). CHOLMOD picks the
 /// fill-reducing ordering and a simplicial or supernodal factorization by the size of the

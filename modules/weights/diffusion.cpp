@@ -1,4 +1,5 @@
 #include <diffreg/weights/diffusion.h>
+#include <diffreg/weights/diffusion_core.h>
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
@@ -12,10 +13,10 @@
 
 namespace diffreg {
 
-DiffusionWeights::DiffusionWeights(const Discretization& disc, SolverBackend backend)
+DiffusionCore::DiffusionCore(const Discretization& disc, SolverBackend backend)
     : disc_(disc), solver_(backend) {}
 
-void DiffusionWeights::setHandles(const std::vector<std::vector<int>>& vertexSets,
+void DiffusionCore::setHandles(const std::vector<std::vector<int>>& vertexSets,
                                   const std::vector<double>& ranges,
                                   const std::vector<double>& magnitudes) {
   const int n = disc_.numVertices();
@@ -46,7 +47,7 @@ void DiffusionWeights::setHandles(const std::vector<std::vector<int>>& vertexSet
   partitionDirty_ = matrixDirty_ = productDirty_ = true;
 }
 
-void DiffusionWeights::setHandles(const HandleSet& handles) {
+void DiffusionCore::setHandles(const HandleSet& handles) {
   std::vector<std::vector<int>> sets;
   std::vector<double> r, m;
   for (const Handle& h : handles.handles) {
@@ -57,7 +58,7 @@ void DiffusionWeights::setHandles(const HandleSet& handles) {
   setHandles(sets, r, m);
 }
 
-void DiffusionWeights::setMagnitude(int handle, double m) {
+void DiffusionCore::setMagnitude(int handle, double m) {
   if (handle < 0 || handle >= static_cast<int>(sets_.size()))
     throw InvalidParameter("weights: no handle " + std::to_string(handle));
   if (!(m >= 0.0) || !std::isfinite(m))
@@ -66,7 +67,7 @@ void DiffusionWeights::setMagnitude(int handle, double m) {
   magnitudes_[handle] = m;  // right-hand side only (pcg: superposition, see solve())
 }
 
-void DiffusionWeights::setRange(int handle, double r) {
+void DiffusionCore::setRange(int handle, double r) {
   if (handle < 0 || handle >= static_cast<int>(sets_.size()))
     throw InvalidParameter("weights: no handle " + std::to_string(handle));
   if (!(r > 0.0) || !std::isfinite(r))
@@ -76,7 +77,7 @@ void DiffusionWeights::setRange(int handle, double r) {
   matrixDirty_ = productDirty_ = true;  // N changes: numeric refactorization only
 }
 
-void DiffusionWeights::setParams(const DiffusionParams& params) {
+void DiffusionCore::setParams(const DiffusionParams& params) {
   if (!(params.t > 0.0) || !std::isfinite(params.t))
     throw InvalidParameter("weights: t must be > 0 (got " + std::to_string(params.t) + ")");
   if (params.order == DiffusionOrder::ImplicitEuler && params.steps < 1)
@@ -88,7 +89,7 @@ void DiffusionWeights::setParams(const DiffusionParams& params) {
   params_ = params;
 }
 
-double DiffusionWeights::absoluteTime() const {
+double DiffusionCore::absoluteTime() const {
   switch (params_.unit) {
     case TimeUnit::Absolute: return params_.t;
     case TimeUnit::Diagonal:
@@ -98,7 +99,7 @@ double DiffusionWeights::absoluteTime() const {
   return params_.t;
 }
 
-Eigen::VectorXd DiffusionWeights::rangeField() const {
+Eigen::VectorXd DiffusionCore::rangeField() const {
   Eigen::VectorXd r = Eigen::VectorXd::Ones(disc_.numVertices());
   for (size_t v = 0; v < owner_.size(); ++v)
     if (owner_[v] >= 0) r(v) = ranges_[owner_[v]];
@@ -107,7 +108,7 @@ Eigen::VectorXd DiffusionWeights::rangeField() const {
 
 // Fixed unknowns (handles, unreferenced vertices), K's blocks, and the nearest handle of every
 // vertex by a multi-source Dijkstra along mesh edges (the pattern of K).
-void DiffusionWeights::preparePartition() {
+void DiffusionCore::preparePartition() {
   const int n = disc_.numVertices();
   std::vector<bool> fixed(n, false);
   for (int v = 0; v < n; ++v) fixed[v] = !disc_.active()[v];
@@ -146,7 +147,7 @@ void DiffusionWeights::preparePartition() {
 
 // The matrix factored for the current order, t and r (docs/method.md, "Diffused weights"): the
 // system itself, or for the second order by `pcg` its preconditioner's factor N + t/sqrt(2) K_FF.
-void DiffusionWeights::prepareMatrix(bool analyzeAgain) {
+void DiffusionCore::prepareMatrix(bool analyzeAgain) {
   const Eigen::VectorXd& M = disc_.lumpedMass();
   const Eigen::VectorXd r = rangeField();
   const int nf = partition_.numFree();
@@ -181,7 +182,7 @@ void DiffusionWeights::prepareMatrix(bool analyzeAgain) {
   matrixDirty_ = false;
 }
 
-Eigen::VectorXd DiffusionWeights::solve() {
+Eigen::VectorXd DiffusionCore::solve() {
   if (sets_.empty()) throw InvalidParameter("weights: no handles (the weights need at least one)");
   bool newPattern = false;
   if (partitionDirty_) {
@@ -216,7 +217,7 @@ Eigen::VectorXd DiffusionWeights::solve() {
   return partition_.scatter(x, g);
 }
 
-Eigen::VectorXd DiffusionWeights::superposed() {
+Eigen::VectorXd DiffusionCore::superposed() {
   Eigen::VectorXd x = previous_;
   // The CG runs of this call, and the accuracy of everything combined.
   DiffusionSolveInfo total;
@@ -243,7 +244,7 @@ Eigen::VectorXd DiffusionWeights::superposed() {
   return x;
 }
 
-Eigen::VectorXd DiffusionWeights::solveBasis() {
+Eigen::VectorXd DiffusionCore::solveBasis() {
   const size_t handles = sets_.size();
   Eigen::MatrixXd G(partition_.numFixed(), static_cast<Eigen::Index>(handles));
   for (size_t j = 0; j < handles; ++j) {
@@ -261,20 +262,20 @@ Eigen::VectorXd DiffusionWeights::solveBasis() {
   return x;
 }
 
-void DiffusionWeights::setHandleBasis(bool on) { handleBasis_ = on; }
+void DiffusionCore::setHandleBasis(bool on) { handleBasis_ = on; }
 
-Eigen::VectorXd DiffusionWeights::dirichlet(const std::vector<double>& values) const {
+Eigen::VectorXd DiffusionCore::dirichlet(const std::vector<double>& values) const {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(partition_.numFixed());
   for (size_t j = 0; j < sets_.size(); ++j)
     for (int v : sets_[j]) g(partition_.local(v)) = values[j];
   return g;
 }
 
-Eigen::VectorXd DiffusionWeights::solveFor(const Eigen::VectorXd& g) {
+Eigen::VectorXd DiffusionCore::solveFor(const Eigen::VectorXd& g) {
   return solveForColumns(g).col(0);
 }
 
-Eigen::MatrixXd DiffusionWeights::solveForColumns(const Eigen::MatrixXd& G) {
+Eigen::MatrixXd DiffusionCore::solveForColumns(const Eigen::MatrixXd& G) {
   const Eigen::MatrixXd b = -(KFJ_ * G);
   const double t = absoluteTime();
   Eigen::MatrixXd x;
@@ -301,7 +302,7 @@ Eigen::MatrixXd DiffusionWeights::solveForColumns(const Eigen::MatrixXd& G) {
 // through K and N without forming K N^-1 K; P^-1 y = S^-1 (N (S^-1 y)) costs two
 // back-substitutions against the factor of S. Per mode of N^-1 K with s = t lambda, P^-1 B has
 // the eigenvalue (1 + s + s^2/2) / (1 + sqrt(2) s + s^2/2) in [(2 + sqrt 2) / 4, 1].
-Eigen::MatrixXd DiffusionWeights::solvePcg(const Eigen::MatrixXd& rhs, double t) {
+Eigen::MatrixXd DiffusionCore::solvePcg(const Eigen::MatrixXd& rhs, double t) {
   Timer timer;
   const double half = 0.5 * t * t;
   const auto Ninv = N_.asDiagonal().inverse();
@@ -374,5 +375,28 @@ Eigen::VectorXd diffuseWeights(const Discretization& disc, const HandleSet& hand
   session.setParams(params);
   return session.solve();
 }
+
+// DiffusionWeights: the public face of DiffusionCore.
+DiffusionWeights::DiffusionWeights(const Discretization& disc, SolverBackend backend)
+    : core_(std::make_unique<DiffusionCore>(disc, backend)) {}
+DiffusionWeights::~DiffusionWeights() = default;
+DiffusionWeights::DiffusionWeights(DiffusionWeights&&) noexcept = default;
+DiffusionWeights& DiffusionWeights::operator=(DiffusionWeights&&) noexcept = default;
+void DiffusionWeights::setHandles(const std::vector<std::vector<int>>& vertexSets,
+                                  const std::vector<double>& ranges,
+                                  const std::vector<double>& magnitudes) {
+  core_->setHandles(vertexSets, ranges, magnitudes);
+}
+void DiffusionWeights::setHandles(const HandleSet& handles) { core_->setHandles(handles); }
+void DiffusionWeights::setMagnitude(int handle, double m) { core_->setMagnitude(handle, m); }
+void DiffusionWeights::setRange(int handle, double r) { core_->setRange(handle, r); }
+void DiffusionWeights::setParams(const DiffusionParams& params) { core_->setParams(params); }
+const DiffusionParams& DiffusionWeights::params() const { return core_->params(); }
+double DiffusionWeights::absoluteTime() const { return core_->absoluteTime(); }
+Eigen::VectorXd DiffusionWeights::solve() { return core_->solve(); }
+void DiffusionWeights::setHandleBasis(bool on) { core_->setHandleBasis(on); }
+const SolverStats& DiffusionWeights::stats() const { return core_->stats(); }
+const DiffusionSolveInfo& DiffusionWeights::lastSolve() const { return core_->lastSolve(); }
+Eigen::VectorXd DiffusionWeights::rangeField() const { return core_->rangeField(); }
 
 }  // namespace diffreg

@@ -5,8 +5,9 @@
 #include <diffreg/core/names.h>
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/handles/handles.h>
-#include <diffreg/solver/solver.h>
+#include <diffreg/solver/backend.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -107,10 +108,15 @@ constexpr int kDiffusionCgMaxIterations = 100;
 /// weights the first time it changes under this matrix and adds them in, and costs no solve
 /// after that (the weights are linear in the magnitudes). Switching to or from the direct
 /// second order changes the pattern, so it analyzes again.
+class DiffusionCore;
+
 class DiffusionWeights {
  public:
   explicit DiffusionWeights(const Discretization& disc,
                             SolverBackend backend = defaultSolverBackend());
+  ~DiffusionWeights();
+  DiffusionWeights(DiffusionWeights&&) noexcept;
+  DiffusionWeights& operator=(DiffusionWeights&&) noexcept;
 
   /// Handle vertex sets with their ranges r_j > 0 and magnitudes m_j >= 0.
   /// \throw InvalidParameter for an empty set, an out-of-range id, r <= 0 or m < 0.
@@ -121,7 +127,7 @@ class DiffusionWeights {
   void setRange(int handle, double r);
   /// \throw InvalidParameter for t <= 0 or steps < 1 (implicit Euler).
   void setParams(const DiffusionParams& params);
-  const DiffusionParams& params() const { return params_; }
+  const DiffusionParams& params() const;
 
   /// t in length^2 after applying the unit.
   double absoluteTime() const;
@@ -136,57 +142,16 @@ class DiffusionWeights {
   void setHandleBasis(bool on);
   /// Factorizations and back-substitutions (a `pcg` solve makes two per CG iteration; a block
   /// of right-hand sides counts as one).
-  const SolverStats& stats() const { return solver_.stats(); }
+  const SolverStats& stats() const;
   /// CG iterations and residual of the last solve().
-  const DiffusionSolveInfo& lastSolve() const { return lastSolve_; }
+  const DiffusionSolveInfo& lastSolve() const;
   /// Per-vertex range factor r_i actually used: each vertex takes the r_j of the handle nearest
   /// to it along mesh edges (the paper leaves open how a handle's r_j reaches the free vertices
   /// whose diffusion speed it scales; docs/method.md, "Diffused weights").
   Eigen::VectorXd rangeField() const;
 
  private:
-  void preparePartition();
-  void prepareMatrix(bool analyzeAgain);
-  bool usesPcg() const {
-    return params_.order == DiffusionOrder::Second && params_.solve == DiffusionSolve::Pcg;
-  }
-  // B X = rhs by one CG per column, sharing the preconditioner's block back-substitutions.
-  Eigen::MatrixXd solvePcg(const Eigen::MatrixXd& rhs, double t);
-  // Every handle's own weights into basis_ (one block solve); returns their combination by
-  // the magnitudes.
-  Eigen::VectorXd solveBasis();
-  // Dirichlet values of the fixed vertices: values[j] on handle j, 0 on unreferenced vertices.
-  Eigen::VectorXd dirichlet(const std::vector<double>& values) const;
-  // The unclipped weights of the free vertices for Dirichlet values g (one full solve).
-  Eigen::VectorXd solveFor(const Eigen::VectorXd& g);
-  // The same for several columns of Dirichlet values at once.
-  Eigen::MatrixXd solveForColumns(const Eigen::MatrixXd& G);
-  // pcg: the weights are linear in the magnitudes, so while the matrix is unchanged the new
-  // weights are the previous ones plus (m_j - previous m_j) times handle j's own weights,
-  // solved on the first change of m_j and kept: dragging a magnitude costs one CG, then none.
-  Eigen::VectorXd superposed();
-
-  const Discretization& disc_;
-  DiffusionParams params_;
-  std::vector<std::vector<int>> sets_;
-  std::vector<double> ranges_, magnitudes_;
-  std::vector<int> owner_;  // nearest handle per vertex (-1 when unreachable)
-  Partition partition_;     // fixed: handle and unreferenced vertices
-  SparseMatrix KFF_, KFJ_;
-  Eigen::VectorXd N_;       // diag(M_FF R_FF^-1)
-  SparseMatrix KNK_;        // K_FF N^-1 K_FF (direct second order), reused while r is unchanged
-  SpdSolver solver_;
-  DiffusionSolveInfo lastSolve_;
-  Eigen::VectorXd previous_;                // pcg: last unclipped free weights (empty: none)
-  std::vector<double> previousMagnitudes_;  // ... and the magnitudes they were solved for
-  DiffusionSolveInfo previousInfo_;         // ... and how accurate they are
-  struct HandleSolution {
-    Eigen::VectorXd x;  // empty until solved
-    DiffusionSolveInfo info;
-  };
-  std::vector<HandleSolution> basis_;  // pcg: handle j's own weights, solved on demand
-  bool partitionDirty_ = true, matrixDirty_ = true, productDirty_ = true;
-  bool handleBasis_ = false;
+  std::unique_ptr<DiffusionCore> core_;
 };
 
 /// One-shot: diffused weights for `handles` on `disc`.

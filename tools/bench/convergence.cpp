@@ -6,6 +6,7 @@
 #include "bench.h"
 #include <diffreg/core/timer.h>
 #include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/local_step.h>
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/mesh/io.h>
 #include <diffreg/mesh/shapes.h>

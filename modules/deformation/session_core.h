@@ -1,0 +1,90 @@
+// The deformation session's machinery (not part of the public API): the residual model, the
+// regularized system and its solver, the acceleration's memory and the local/global loop.
+// DeformationSession (deformer.h) owns one and forwards to it.
+#pragma once
+
+#include <diffreg/deformation/anderson.h>
+#include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/lbfgs.h>
+#include <diffreg/deformation/local_step.h>
+#include <diffreg/deformation/options.h>
+#include <diffreg/deformation/system.h>
+#include <diffreg/solver/solver.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace diffreg {
+
+class DeformationCore {
+ public:
+  // The operations of DeformationSession, documented there.
+  DeformationCore(const Discretization& disc, const DeformationOptions& options = {});
+  ~DeformationCore();
+
+  void setHandles(const std::vector<int>& vertices);
+  void setTargets(const Eigen::MatrixXd& targets);
+  void setRegularization(Regularization mode, double beta, const Eigen::VectorXd& weights = {});
+  void setBeta(double beta);
+  void setWeights(const Eigen::VectorXd& weights);
+
+  DeformationResult solve(int maxIterations, double relTolerance);
+  DeformationResult solve() { return solve(options_.maxIterations, options_.relTolerance); }
+  DeformationResult solveFrom(const Eigen::MatrixXd& initial, int maxIterations,
+                              double relTolerance);
+  DeformationResult resume(int maxIterations, double relTolerance);
+
+  const DeformationOptions& options() const { return options_; }
+  const RegularizationWeights& regularizationWeights() const { return system_.weights(); }
+  const SparseMatrix& systemMatrix() const { return system_.matrix(); }
+  SolverStats stats() const;
+
+ private:
+  // solve() (initial = nullptr) and solveFrom().
+  DeformationResult run(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial,
+                        bool resume = false);
+  // The first shape of the iterative energies and its local step (t_, e_, the energy).
+  double start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X, DeformationResult& result);
+  // Local/global from there: descent (exact local step) or the reference loop.
+  void descend(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
+               DeformationResult& result);
+  void descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
+                    DeformationResult& result);
+  // Makes (next, nextT, nextE) with its energy the current iterate (X, t_, e_, E) and counts it.
+  void advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Eigen::MatrixXd& nextT,
+               Eigen::MatrixXd& nextE, double energy, double& E, DeformationResult& result);
+  // The plain step from targets t: the global step into X, then the local step updating t and e.
+  // Returns its energy (at most the energy of the shape t was fitted to).
+  double plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e);
+  // The energy gradient's direction A X - C t on the free unknowns (0 on the fixed ones).
+  Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t);
+  void iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
+                        DeformationResult& result);
+  Eigen::MatrixXd restSolve();
+  double local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e);
+  void report(const DeformationResult& result) const;
+  const Discretization& disc_;
+  DeformationOptions options_;
+  ResidualModel model_;
+  RegularizedSystem system_;
+  // ARAP on planar meshes starts from the regularized ASAP solution.
+  std::unique_ptr<ResidualModel> initModel_;
+  std::unique_ptr<RegularizedSystem> initSystem_;
+  std::vector<int> handles_;
+  Eigen::MatrixXd targets_;
+  Eigen::MatrixXd t_, e_;        // targets and residuals, reused across iterations
+  Eigen::MatrixXd F_;            // stacked L_k x_k of the local step, scratch
+  // Where the last iterative run stopped, for resume(): its shape and energy (with t_) and the
+  // acceleration's memory.
+  Eigen::MatrixXd lastX_;
+  double lastE_ = 0.0;
+  bool resumable_ = false;
+  LbfgsHistory lbfgs_{1};
+  AndersonMixer anderson_{1};
+  Eigen::MatrixXd restTargets_;  // targets fitted to the rest shape (first local step), cached
+  Eigen::MatrixXd restRhs_;      // C restTargets_ for the current weights (empty: not yet)
+  Eigen::MatrixXd initRhs_;      // the same for the ASAP initial guess's system
+};
+
+}  // namespace diffreg
