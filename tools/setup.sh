@@ -13,7 +13,7 @@ packages=(build-essential cmake pkg-config libopenmesh-dev libeigen3-dev libcgal
           libboost-program-options-dev libsuitesparse-dev libopenblas0-pthread nlohmann-json3-dev
           libpng-dev libpugixml-dev libtbb-dev tetgen doxygen libcpp-httplib-dev libjs-three
           chromium nodejs clang libclang-rt-14-dev python3-dev pybind11-dev python3-numpy
-          python3-pytest python3-matplotlib)
+          python3-pytest python3-matplotlib libcairo2-dev fonts-dejavu-core)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -1,5 +1,5 @@
-// RGB images for figures: pixel access, PNG reading and writing (libpng), a small built-in
-// bitmap font, and multi-panel composition.
+// RGB images for figures: pixel access, PNG reading and writing (libpng), text (Cairo, DejaVu
+// Sans), and multi-panel composition.
 #pragma once
 
 #include <array>
@@ -57,13 +57,14 @@ void writePng(const std::string& path, const Image& image);
 /// \throw IoError when the file cannot be opened or is not a valid PNG.
 Image readPng(const std::string& path);
 
-/// Height of a line of text in pixels at `scale` (glyph cell including descenders).
+/// Height of a line of text in pixels at `scale` (the font's ascent plus descent; the font is
+/// 9 * scale pixels). \throw InvalidParameter when scale < 1.
 int textHeight(int scale);
-/// Width in pixels of `text` drawn at `scale`.
+/// Width in pixels of `text` (UTF-8) drawn at `scale`. \throw InvalidParameter when scale < 1.
 int textWidth(const std::string& text, int scale);
-/// Draws `text` with the built-in 5x7 bitmap font (letters, digits, and . , - + = ( ) : / % _ '
-/// < > space; anything else is drawn as a small box), top-left corner at (x, y), each font
-/// pixel a scale x scale block. Clips to the image. \throw InvalidParameter when scale < 1.
+/// Draws `text` (UTF-8; Cairo draws nothing for invalid UTF-8) in DejaVu Sans, anti-aliased,
+/// top-left corner at (x, y), inside the box textWidth x textHeight. Clips to the image.
+/// \throw InvalidParameter when scale < 1.
 void drawText(Image& image, int x, int y, const std::string& text, const Rgb& color, int scale = 1);
 
 /// Lays `panels` out row by row in `columns` columns, each cell as large as the largest panel
