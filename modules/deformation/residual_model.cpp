@@ -140,14 +140,14 @@ void ResidualModel::gradients(const Eigen::MatrixXd& X, Eigen::MatrixXd& F) cons
   });
 }
 
-void ResidualModel::fitElement(const double* Ct, double weight, int k, Eigen::MatrixXd& t) const {
+void ResidualModel::fitElement(const double* Ct, double weight, int k, double* Tt) const {
   // Ct is the d x d block C_k^T, row-major in the layout's rows (rows_ = d, columns_ = d).
-  const Eigen::Index row = static_cast<Eigen::Index>(k) * dim_;
   if (dim_ == 2) {
     Eigen::Matrix2d C;
     for (int a = 0; a < 2; ++a)
       for (int b = 0; b < 2; ++b) C(b, a) = Ct[a * 2 + b];
-    t.block<2, 2>(row, 0) = energy_.fit(C, weight).transpose();
+    Eigen::Map<Eigen::Matrix<double, 2, 2, Eigen::RowMajor>> out(Tt);
+    out = energy_.fit(C, weight).transpose();
     return;
   }
   Eigen::Matrix3d C;
@@ -156,7 +156,8 @@ void ResidualModel::fitElement(const double* Ct, double weight, int k, Eigen::Ma
   const bool surface = disc_.kind() == MeshKind::Surface;
   const Eigen::Vector3d n = surface ? Eigen::Vector3d(disc_.normals().row(k).transpose())
                                     : Eigen::Vector3d::Zero();
-  t.block<3, 3>(row, 0) = energy_.fit(C, weight, surface ? &n : nullptr).transpose();
+  Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> out(Tt);
+  out = energy_.fit(C, weight, surface ? &n : nullptr).transpose();
 }
 
 void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) const {
@@ -167,11 +168,14 @@ void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) con
     return;
   }
   parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
-    double Ct[9];
+    double Ct[9], Tt[9];
     for (int k = begin; k < end; ++k) {
+      const Eigen::Index row = static_cast<Eigen::Index>(k) * dim_;
       for (int a = 0; a < dim_; ++a)
-        for (int b = 0; b < dim_; ++b) Ct[a * dim_ + b] = F(static_cast<Eigen::Index>(k) * dim_ + a, b);
-      fitElement(Ct, 1.0, k, t);
+        for (int b = 0; b < dim_; ++b) Ct[a * dim_ + b] = F(row + a, b);
+      fitElement(Ct, 1.0, k, Tt);
+      for (int a = 0; a < dim_; ++a)
+        for (int b = 0; b < dim_; ++b) t(row + a, b) = Tt[a * dim_ + b];
     }
   });
 }

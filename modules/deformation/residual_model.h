@@ -45,9 +45,10 @@ class ResidualModel {
   /// Stacked L_k x_k for positions n x d, in the layout of the targets ((m rows()) x
   /// columns(); separable: the blocks F_k^T). `F` is resized only when its shape is wrong.
   void gradients(const Eigen::MatrixXd& positions, Eigen::MatrixXd& F) const;
-  /// Element k's target for its block C^T (rows() x columns(), separable layout) and total
-  /// weight (EnergyModel::fit), written into block k of `t`. Iterative energies only.
-  void fitElement(const double* Ct, double weight, int k, Eigen::MatrixXd& t) const;
+  /// Element k's target for its block C^T (d x d, separable layout, row-major) and total
+  /// weight (EnergyModel::fit), written row-major into `Tt` (d x d: block k of the stacked
+  /// targets). Iterative energies only.
+  void fitElement(const double* Ct, double weight, int k, double* Tt) const;
   /// Every element's target fitted to its own F_k alone (weight 1, in parallel): the local step
   /// of plain local/global and of `local_step=reference`; the constant targets of the linear
   /// energies. `t` is resized only when its shape is wrong.
