@@ -167,32 +167,13 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
   const double* L = model_.locals().data();
   const Eigen::VectorXd& elementWeight = regularizer_.elementWeight();
-  if (!regularizer_.coupling()) {
-    // tau_k = w_k t_k: one gather per unknown over its (element, local unknown) pairs.
-    parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
-      double acc[kMaxBlock];
-      for (int p = begin; p < end; ++p) {
-        for (int col = 0; col < c; ++col) acc[col] = 0.0;
-        for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
-          const int k = incidenceElement_[at], j = incidenceLocal_[at];
-          const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
-          const double* Lj = L + j * mr + row;  // column j of L_k
-          for (int col = 0; col < c; ++col) {
-            double sum = 0.0;
-            for (int a = 0; a < r; ++a) sum += Lj[a] * t(row + a, col);
-            acc[col] += elementWeight(k) * sum;
-          }
-        }
-        for (int col = 0; col < c; ++col) b(p, col) = acc[col];
-      }
-    });
-    return;
-  }
+  const bool coupled = regularizer_.coupling();
   const size_t block = static_cast<size_t>(u) * c;
   if (contribution_.size() != static_cast<size_t>(m) * block)
     contribution_.resize(static_cast<size_t>(m) * block);
   // Per element, in element order: tau_k = w_k t_k + sum_(facets kl) w_kl (t_k - t_l) and its
-  // share L_k^T tau_k of the right-hand side (u x c, stored [k][j][col]) ...
+  // share L_k^T tau_k of the right-hand side (u x c, stored [k][j][col]), streaming through t
+  // and the operators ...
   parallel::forChunks(m, kGrain, [&](int, int begin, int end) {
     double tau[kMaxBlock];
     for (int k = begin; k < end; ++k) {
@@ -202,7 +183,7 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
         for (int a = 0; a < r; ++a) {
           const double tk = t(row + a, col);
           double sum = wk * tk;
-          for (int g = regularizer_.facetBegin(k); g < regularizer_.facetEnd(k); ++g)
+          for (int g = regularizer_.facetBegin(k); g < regularizer_.facetEnd(k) && coupled; ++g)
             sum += regularizer_.neighbourWeight(g) *
                    (tk - t(static_cast<Eigen::Index>(regularizer_.neighbour(g)) * r + a, col));
           tau[col * r + a] = sum;
@@ -218,7 +199,9 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
       }
     }
   });
-  // ... then gathered per unknown over its (element, local unknown) pairs.
+  // ... then gathered per unknown over its (element, local unknown) pairs, one contiguous
+  // share each (gathering L_k^T w_k t_k directly reads four scattered cache lines per pair:
+  // measured twice as slow without regularization).
   parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
     double acc[kMaxBlock];
     for (int p = begin; p < end; ++p) {
