@@ -111,10 +111,10 @@ TEST_CASE("a default run is stationary: 30 more plain iterations gain less than 
       system.setWeights(s.regularizationWeights());
       system.setHandles(b.handles);
       auto relaxed = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd& t) {
-        Eigen::MatrixXd e, F;
+        Eigen::MatrixXd F;
         double energy = 0.0;
         for (int i = 0; i < 20; ++i)
-          energy = localStep(model, system.regularizer(), LocalStep::Exact, X, t, e, F);
+          energy = localStep(model, system.regularizer(), LocalStep::Exact, X, t, F);
         return energy;
       };
       Eigen::MatrixXd t;

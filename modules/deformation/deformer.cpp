@@ -105,13 +105,19 @@ Eigen::MatrixXd DeformationCore::restSolve() {
   // The rest targets and their right-hand side change only with the weights: every handle move
   // starts from them (the first global step of the iterative energies, the only one of the
   // linear energies).
-  if (restTargets_.size() == 0) model_.targets(disc_.rest(), restTargets_);
-  if (restRhs_.size() == 0) system_.rightHandSide(restTargets_, restRhs_);
+  // Only the right-hand side is kept (n x d; the targets are m d x d). The factorization comes
+  // first, so that its peak memory does not add to the targets' and the right-hand side's.
+  system_.factorize();
+  if (restRhs_.size() == 0) {
+    Eigen::MatrixXd restTargets;
+    model_.targets(disc_.rest(), restTargets);
+    system_.rightHandSide(restTargets, restRhs_);
+  }
   return system_.solveRightHandSide(restRhs_, targets_);
 }
 
-double DeformationCore::local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
-  const double E = localStep(model_, system_.regularizer(), options_.localStep, X, t, e, F_);
+double DeformationCore::local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t) {
+  const double E = localStep(model_, system_.regularizer(), options_.localStep, X, t, F_);
   if (!std::isfinite(E))
     throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
   return E;
@@ -129,7 +135,7 @@ double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X
     // The given shape's targets, then one global step: it puts the handles at their targets,
     // so that every later iterate has the fixed values the descent keeps.
     result.initialGuess = "given";
-    result.energies.push_back(local(*initial, t_, e_));
+    result.energies.push_back(local(*initial, t_));
     X = system_.solve(t_, targets_);
     result.iterations = 1;
   } else if (initSystem_ && initSystem_->singularity().empty()) {
@@ -145,7 +151,7 @@ double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X
     X = restSolve();
     result.iterations = 1;
   }
-  const double E = local(X, t_, e_);
+  const double E = local(X, t_);
   result.energies.push_back(E);
   if (result.iterations > 0) report(result);
   return E;
@@ -156,7 +162,7 @@ void DeformationCore::iterateReference(int maxIterations, double tolerance, Eige
   while (result.iterations < maxIterations) {
     X = system_.solve(t_, targets_);
     const double previous = E;
-    E = local(X, t_, e_);
+    E = local(X, t_);
     result.energies.push_back(E);
     ++result.iterations;
     result.criterion = std::abs(previous - E) / previous;
@@ -172,27 +178,27 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
                                  double E, DeformationResult& result) {
   AndersonMixer& mixer = anderson_;
   const bool accelerate = options_.acceleration == Acceleration::Anderson;
-  Eigen::MatrixXd plainT, plainE, mixed, mixedT, mixedE;
+  Eigen::MatrixXd plainT, mixed, mixedT;
   while (result.iterations < maxIterations) {
     // The plain step: the global step for the current targets, then the local step. Both are
     // exact minimizers, so its energy is at most E; how much lower is the criterion.
     Eigen::MatrixXd plain;
     plainT = t_;
-    const double plainEnergy = plainStep(plain, plainT, plainE);
+    const double plainEnergy = plainStep(plain, plainT);
     result.criterion = E > 0.0 ? std::max(0.0, (E - plainEnergy) / E) : 0.0;
     // The Anderson step, taken only when it ends lower than E (the safeguard).
     bool takeMixed = false;
     double mixedEnergy = plainEnergy;
     if (accelerate && mixer.mix(X, plain, mixed)) {
       mixedT = t_;
-      mixedEnergy = local(mixed, mixedT, mixedE);
+      mixedEnergy = local(mixed, mixedT);
       takeMixed = mixedEnergy < E;
     }
     if (takeMixed) {
-      advance(X, mixed, mixedT, mixedE, mixedEnergy, E, result);
+      advance(X, mixed, mixedT, mixedEnergy, E, result);
       ++result.accelerated;
     } else {
-      advance(X, plain, plainT, plainE, plainEnergy, E, result);
+      advance(X, plain, plainT, plainEnergy, E, result);
     }
     report(result);
     if (result.criterion <= tolerance) {
@@ -203,19 +209,18 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
 }
 
 void DeformationCore::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next,
-                                 Eigen::MatrixXd& nextT, Eigen::MatrixXd& nextE, double energy,
+                                 Eigen::MatrixXd& nextT, double energy,
                                  double& E, DeformationResult& result) {
   X.swap(next);
   t_.swap(nextT);
-  e_.swap(nextE);
   E = energy;
   result.energies.push_back(E);
   ++result.iterations;
 }
 
-double DeformationCore::plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e) {
+double DeformationCore::plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t) {
   X = system_.solve(t, targets_);
-  return local(X, t, e);
+  return local(X, t);
 }
 
 Eigen::MatrixXd DeformationCore::gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t) {
@@ -234,13 +239,13 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
   LbfgsHistory& history = lbfgs_;
   const double scale = 2.0 * model_.energyScale();  // grad E = scale (A X - C t)
   const auto initial = [this](const Eigen::MatrixXd& q) { return system_.applyInverse(q); };
-  Eigen::MatrixXd g = gradient(X, t_), trial, trialT, trialE;
+  Eigen::MatrixXd g = gradient(X, t_), trial, trialT;
   auto accept = [&](double energy) {
     const double decrease = E > 0.0 ? std::max(0.0, (E - energy) / E) : 0.0;
     Eigen::MatrixXd gNew = gradient(trial, trialT);
     history.add(trial - X, gNew - g);
     g.swap(gNew);
-    advance(X, trial, trialT, trialE, energy, E, result);
+    advance(X, trial, trialT, energy, E, result);
     return decrease;
   };
   while (result.iterations < maxIterations) {
@@ -258,20 +263,20 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     for (int i = 0; i < kBacktracks && !found; ++i, alpha *= 0.5) {
       trial = X + alpha * d;
       trialT = t_;
-      energy = local(trial, trialT, trialE);
+      energy = local(trial, trialT);
       found = energy <= E + kArmijo * alpha * slope;
     }
     if (found && history.size() > 0) ++result.accelerated;
     if (!found) {  // the plain step, a descent by construction
       history.reset();
       trialT = t_;
-      energy = plainStep(trial, trialT, trialE);
+      energy = plainStep(trial, trialT);
     }
     result.criterion = accept(energy);
     if (result.criterion <= tolerance && result.iterations < maxIterations) {
       // Stationarity is decided by a plain step: what one more local/global iteration gains.
       trialT = t_;
-      result.criterion = accept(plainStep(trial, trialT, trialE));
+      result.criterion = accept(plainStep(trial, trialT));
       if (result.criterion <= tolerance) result.converged = true;
     }
     report(result);
@@ -295,7 +300,7 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
   Eigen::MatrixXd X;
   if (!model_.iterative()) {
     X = restSolve();
-    result.energies.push_back(local(X, t_, e_));
+    result.energies.push_back(local(X, t_));
     result.iterations = 1;
     report(result);
   } else {

@@ -15,13 +15,29 @@ constexpr int kGrain = 1024;  // elements per parallel chunk
 // neighbours are a few cache lines each (the sweeps visit a colour's elements all over the mesh).
 using Blocks = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-Blocks toBlocks(const Eigen::MatrixXd& stacked, int d) {
+// Copies stacked (m d x d) into `out` (m x d^2), which must have that size.
+void toBlocks(const Eigen::MatrixXd& stacked, int d, Blocks& out) {
   const Eigen::Index m = stacked.rows() / d;
-  Blocks out(m, d * d);
   for (Eigen::Index k = 0; k < m; ++k)
     for (int a = 0; a < d; ++a)
       for (int b = 0; b < d; ++b) out(k, a * d + b) = stacked(k * d + a, b);
+}
+
+Blocks toBlocks(const Eigen::MatrixXd& stacked, int d) {
+  Blocks out(stacked.rows() / d, d * d);
+  toBlocks(stacked, d, out);
   return out;
+}
+
+// Every element's target fitted to its own F_k alone (ResidualModel::fitTargets), as blocks.
+Blocks fitBlocks(const ResidualModel& model, const Blocks& F) {
+  Blocks t(F.rows(), F.cols());
+  parallel::forChunks(static_cast<int>(F.rows()), kGrain, [&](int, int begin, int end) {
+    for (int k = begin; k < end; ++k)
+      model.fitElement(F.data() + static_cast<Eigen::Index>(k) * F.cols(), 1.0, k,
+                       t.data() + static_cast<Eigen::Index>(k) * t.cols());
+  });
+  return t;
 }
 
 void fromBlocks(const Blocks& blocks, int d, Eigen::MatrixXd& stacked) {
@@ -64,41 +80,44 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
 }  // namespace
 
 double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep step,
-                 const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e,
-                 Eigen::MatrixXd& F) {
+                 const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& F) {
   model.gradients(X, F);
   const bool sweep = model.iterative() && step == LocalStep::Exact && reg.coupling();
-  if (!sweep || t.rows() != F.rows() || t.cols() != F.cols()) {
+  if (!sweep) {
     // Linear energies, the reference step, and the exact step without coupling (C_k = w_k F_k):
-    // every target fitted to its own element. Without previous targets the sweeps start there.
+    // every target fitted to its own element.
     model.fitTargets(F, t);
-  } else {
-    // Start from the previous targets or from the per-element fit, whichever is lower: the
-    // sweeps then lower the energy further, so the step never raises it, and the per-element
-    // fit brings the rotations along at once where the shape has turned.
-    Eigen::MatrixXd fitted;
-    model.fitTargets(F, fitted);
-    if (model.energy(F, fitted, reg.weights()) < model.energy(F, t, reg.weights()))
-      t.swap(fitted);
+    return model.energy(F, t, reg.weights());
   }
-  if (sweep) {
-    const int d = model.rows();
-    const Blocks Fb = toBlocks(F, d);
-    Blocks tb = toBlocks(t, d);
-    for (int i = 0; i < kLocalSweeps; ++i)
-      for (const std::vector<int>& ids : reg.colours()) sweepColour(model, reg, ids, Fb, tb);
-    fromBlocks(tb, d, t);
-  }
-  e = F - t;
-  return model.energy(e, reg.weights());
+  // The sweeps work on row-major copies of F and t. F (scratch) and t are released meanwhile,
+  // so the step holds at most three such arrays at once.
+  const int d = model.rows();
+  const Eigen::Index rows = F.rows(), cols = F.cols();
+  const Blocks Fb = toBlocks(F, d);
+  F.resize(0, 0);
+  // Start from the previous targets or from the per-element fit, whichever is lower: the
+  // sweeps then lower the energy further, so the step never raises it, and the per-element fit
+  // brings the rotations along at once where the shape has turned. Without previous targets
+  // the sweeps start from the fit.
+  Blocks tb = fitBlocks(model, Fb);
+  if (t.rows() == rows && t.cols() == cols &&
+      !(model.blockEnergy(Fb.data(), tb.data(), reg.weights()) <
+        model.blockEnergy(Fb.data(), t, reg.weights())))
+    toBlocks(t, d, tb);
+  t.resize(0, 0);
+  for (int i = 0; i < kLocalSweeps; ++i)
+    for (const std::vector<int>& ids : reg.colours()) sweepColour(model, reg, ids, Fb, tb);
+  t.resize(rows, cols);
+  fromBlocks(tb, d, t);
+  return model.blockEnergy(Fb.data(), tb.data(), reg.weights());
 }
 
 double relaxedEnergy(const ResidualModel& model, const Regularizer& reg,
                      const Eigen::MatrixXd& X) {
-  Eigen::MatrixXd t, e, F;
-  double E = localStep(model, reg, LocalStep::Exact, X, t, e, F);
+  Eigen::MatrixXd t, F;
+  double E = localStep(model, reg, LocalStep::Exact, X, t, F);
   for (int i = 0; i < 100 && reg.coupling() && model.iterative(); ++i) {
-    const double next = localStep(model, reg, LocalStep::Exact, X, t, e, F);
+    const double next = localStep(model, reg, LocalStep::Exact, X, t, F);
     const bool settled = E - next <= 1e-12 * E;
     E = next;
     if (settled) break;

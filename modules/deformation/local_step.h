@@ -26,12 +26,11 @@ namespace diffreg {
 constexpr int kLocalSweeps = 3;
 
 /// The local step at positions X: updates the targets `t` (read as the previous targets by the
-/// exact step, which needs them for the neighbours), writes the residuals `e` and returns the
-/// energy (ResidualModel::energy). `F` is scratch space for the stacked L_k x_k. Linear
-/// energies keep their constant targets.
+/// exact step, which needs them for the neighbours) and returns the energy
+/// (ResidualModel::energy). `F` is scratch space for the stacked L_k x_k (left empty after the
+/// exact step's sweeps). Linear energies keep their constant targets.
 double localStep(const ResidualModel& model, const Regularizer& regularizer, LocalStep step,
-                 const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e,
-                 Eigen::MatrixXd& F);
+                 const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& F);
 
 /// Eq. 3 at positions X as a function of the shape alone: its minimum over the targets,
 /// approached by exact local steps from the per-element fit until one gains less than 1e-12

@@ -71,29 +71,49 @@ ResidualModel::ResidualModel(const Discretization& disc, Energy energy)
   rows_ = coupled_ ? d * d : d;
   localSize_ = elementSize_ * dofsPerVertex_;
   const int m = disc.numElements();
-  operators_.resize(static_cast<Eigen::Index>(m) * rows_, localSize_);
-  fixedTargets_.setZero(static_cast<Eigen::Index>(m) * rows_, columns_);
+  if (coupled_) operators_.resize(static_cast<Eigen::Index>(m) * rows_, localSize_);
+  // Constant targets only for the linear energies (the iterative ones fit theirs).
+  if (!iterative_) fixedTargets_.setZero(static_cast<Eigen::Index>(m) * rows_, columns_);
   const MeshKind kind = disc.kind();
-  for (int k = 0; k < m; ++k) {
+  for (int k = 0; k < m && (coupled_ || !iterative_); ++k) {
     const auto G = disc.gradient(k);
     const Eigen::MatrixXd frame = disc.restFrame(k);
     const Eigen::MatrixXd T = energy_.constantTarget(frame, kind);
-    auto L = operators_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, localSize_);
-    auto t = fixedTargets_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, columns_);
     if (!coupled_) {
-      L = G.transpose();
-      t = T.transpose();
+      if (!iterative_)
+        fixedTargets_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, columns_) =
+            T.transpose();
       continue;
     }
+    auto t = fixedTargets_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, columns_);
     // B_k: vec(F_k)[a d + b] = sum_i x_(i,a) G(i,b), local unknown i d + a.
     Eigen::MatrixXd B = Eigen::MatrixXd::Zero(rows_, localSize_);
     for (int i = 0; i < elementSize_; ++i)
       for (int a = 0; a < d; ++a)
         for (int b = 0; b < d; ++b) B(a * d + b, i * d + a) = G(i, b);
-    L = complementProjector(energy_.removedModes(frame, kind), rows_) * B;
+    operators_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, localSize_) =
+        complementProjector(energy_.removedModes(frame, kind), rows_) * B;
     for (int a = 0; a < d; ++a)
       for (int b = 0; b < d; ++b) t(a * d + b, 0) = T(a, b);
   }
+}
+
+ResidualModel::Operators ResidualModel::operators() const {
+  if (coupled_) {
+    const Eigen::Index mr = static_cast<Eigen::Index>(disc_.numElements()) * rows_;
+    return {operators_.data(), rows_, 1, mr};
+  }
+  // L_k(b, j) = G_k(j, b), G stacked column-major (m s) x d.
+  const Eigen::MatrixXd& G = disc_.gradients();
+  return {G.data(), elementSize_, G.rows(), 1};
+}
+
+Eigen::MatrixXd ResidualModel::local(int k) const {
+  const Operators L = operators();
+  Eigen::MatrixXd out(rows_, localSize_);
+  for (int row = 0; row < rows_; ++row)
+    for (int j = 0; j < localSize_; ++j) out(row, j) = L(k, row, j);
+  return out;
 }
 
 int ResidualModel::unknown(int k, int j) const {
@@ -119,7 +139,7 @@ Eigen::MatrixXd ResidualModel::toPositions(const Eigen::MatrixXd& x) const {
 }
 
 void ResidualModel::gradients(const Eigen::MatrixXd& X, Eigen::MatrixXd& F) const {
-  const Eigen::Index rows = fixedTargets_.rows();
+  const Eigen::Index rows = static_cast<Eigen::Index>(disc_.numElements()) * rows_;
   if (F.rows() != rows || F.cols() != columns_) F.resize(rows, columns_);
   if (coupled_) {  // vec(F_k) through B_k: the unprojected operators are not kept, so L_k x_k
     const Eigen::MatrixXd x = toUnknowns(X);
@@ -161,8 +181,8 @@ void ResidualModel::fitElement(const double* Ct, double weight, int k, double* T
 }
 
 void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) const {
-  if (t.rows() != fixedTargets_.rows() || t.cols() != columns_)
-    t.resize(fixedTargets_.rows(), columns_);
+  const Eigen::Index rows = static_cast<Eigen::Index>(disc_.numElements()) * rows_;
+  if (t.rows() != rows || t.cols() != columns_) t.resize(rows, columns_);
   if (!iterative_) {
     t = fixedTargets_;
     return;
@@ -280,6 +300,24 @@ double ResidualModel::energy(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t,
   return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
     const Eigen::Index row = static_cast<Eigen::Index>(k) * r + a;
     return F(row, b) - t(row, b);
+  });
+}
+
+double ResidualModel::blockEnergy(const double* F, const double* t,
+                                  const RegularizationWeights& w) const {
+  const int r = rows_, dd = rows_ * columns_;
+  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
+    const size_t at = static_cast<size_t>(k) * dd + static_cast<size_t>(a) * r + b;
+    return F[at] - t[at];
+  });
+}
+
+double ResidualModel::blockEnergy(const double* F, const Eigen::MatrixXd& t,
+                                  const RegularizationWeights& w) const {
+  const int r = rows_, dd = rows_ * columns_;
+  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
+    const size_t at = static_cast<size_t>(k) * dd + static_cast<size_t>(a) * r + b;
+    return F[at] - t(static_cast<Eigen::Index>(k) * r + a, b);
   });
 }
 

@@ -29,12 +29,19 @@ class ResidualModel {
   /// Residual rows per element (d separable, d^2 coupled) and local unknowns per element.
   int rows() const { return rows_; }
   int localSize() const { return localSize_; }
+  /// Where the L_k live: L_k(row, j) = data[k kStride + row rowStride + j columnStride]. The
+  /// separable layout reads them from the discretization's gradients (L_k = G_k^T), so only
+  /// the coupled layout keeps operators of its own.
+  struct Operators {
+    const double* data;
+    Eigen::Index kStride, rowStride, columnStride;
+    double operator()(int k, int row, int j) const {
+      return data[k * kStride + row * rowStride + j * columnStride];
+    }
+  };
+  Operators operators() const;
   /// L_k (rows() x localSize()).
-  Eigen::Block<const Eigen::MatrixXd> local(int k) const {
-    return operators_.block(static_cast<Eigen::Index>(k) * rows_, 0, rows_, localSize_);
-  }
-  /// All L_k stacked: (m rows()) x localSize().
-  const Eigen::MatrixXd& locals() const { return operators_; }
+  Eigen::MatrixXd local(int k) const;
   /// Global unknown index of element k's local unknown j.
   int unknown(int k, int j) const;
 
@@ -72,6 +79,11 @@ class ResidualModel {
   /// energy(F - t, weights) without forming the residuals.
   double energy(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t,
                 const RegularizationWeights& weights) const;
+  /// energy(F, t) for F and t held as m rows of row-major d x d blocks (separable layout).
+  double blockEnergy(const double* F, const double* t, const RegularizationWeights& weights) const;
+  /// The same with t stacked as usual.
+  double blockEnergy(const double* F, const Eigen::MatrixXd& t,
+                     const RegularizationWeights& weights) const;
   /// The factor ell^-md of that rescaling: E = energyScale() x (the sum with physical a_k and
   /// ell c_kl), the scale of the system matrix A in the energy (E = energyScale() |J x - t|^2).
   double energyScale() const;
@@ -81,7 +93,7 @@ class ResidualModel {
   const EnergyModel& energy_;
   bool coupled_, iterative_;
   int dim_, elementSize_, dofsPerVertex_, columns_, rows_, localSize_;
-  Eigen::MatrixXd operators_;     // stacked L_k
+  Eigen::MatrixXd operators_;     // stacked L_k, coupled layout only
   Eigen::MatrixXd fixedTargets_;  // constant targets of the linear energies
 };
 

@@ -44,25 +44,25 @@ class DeformationCore {
   // solve() (initial = nullptr) and solveFrom().
   DeformationResult run(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial,
                         bool resume = false);
-  // The first shape of the iterative energies and its local step (t_, e_, the energy).
+  // The first shape of the iterative energies and its local step (t_, the energy).
   double start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X, DeformationResult& result);
   // Local/global from there: descent (exact local step) or the reference loop.
   void descend(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                DeformationResult& result);
   void descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                     DeformationResult& result);
-  // Makes (next, nextT, nextE) with its energy the current iterate (X, t_, e_, E) and counts it.
-  void advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Eigen::MatrixXd& nextT,
-               Eigen::MatrixXd& nextE, double energy, double& E, DeformationResult& result);
-  // The plain step from targets t: the global step into X, then the local step updating t and e.
+  // Makes (next, nextT) with its energy the current iterate (X, t_, E) and counts it.
+  void advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Eigen::MatrixXd& nextT, double energy,
+               double& E, DeformationResult& result);
+  // The plain step from targets t: the global step into X, then the local step updating t.
   // Returns its energy (at most the energy of the shape t was fitted to).
-  double plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e);
+  double plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t);
   // The energy gradient's direction A X - C t on the free unknowns (0 on the fixed ones).
   Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t);
   void iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                         DeformationResult& result);
   Eigen::MatrixXd restSolve();
-  double local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& e);
+  double local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t);
   void report(const DeformationResult& result) const;
   const Discretization& disc_;
   DeformationOptions options_;
@@ -73,7 +73,7 @@ class DeformationCore {
   std::unique_ptr<RegularizedSystem> initSystem_;
   std::vector<int> handles_;
   Eigen::MatrixXd targets_;
-  Eigen::MatrixXd t_, e_;        // targets and residuals, reused across iterations
+  Eigen::MatrixXd t_;            // targets, reused across iterations
   Eigen::MatrixXd F_;            // stacked L_k x_k of the local step, scratch
   // Where the last iterative run stopped, for resume(): its shape and energy (with t_) and the
   // acceleration's memory.
@@ -82,8 +82,8 @@ class DeformationCore {
   bool resumable_ = false;
   LbfgsHistory lbfgs_{1};
   AndersonMixer anderson_{1};
-  Eigen::MatrixXd restTargets_;  // targets fitted to the rest shape (first local step), cached
-  Eigen::MatrixXd restRhs_;      // C restTargets_ for the current weights (empty: not yet)
+  Eigen::MatrixXd restRhs_;  // C t for the rest shape's targets and the current weights
+                             // (empty: not yet)
   Eigen::MatrixXd initRhs_;      // the same for the ASAP initial guess's system
 };
 

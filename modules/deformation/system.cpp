@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <memory>
 #include <string>
 
 namespace diffreg {
@@ -22,6 +23,7 @@ RegularizedSystem::RegularizedSystem(const ResidualModel& model, SolverBackend b
       regularizer_(model.discretization()),
       reserveCouplings_(reserveCouplings),
       solver_(backend) {
+  solver_.trustPatterns();  // buildPattern() is the only place A's pattern changes
   buildTopology();
   setWeights(makeRegularizationWeights(model.discretization(), Regularization::None, 0.0));
 }
@@ -46,24 +48,23 @@ void RegularizedSystem::buildTopology() {
   for (int k = 0; k < m; ++k)
     for (int j = 0; j < u; ++j) ++incidenceStart_[static_cast<size_t>(model_.unknown(k, j)) + 1];
   for (int p = 0; p < N; ++p) incidenceStart_[p + 1] += incidenceStart_[p];
-  incidenceElement_.resize(static_cast<size_t>(incidenceStart_[N]));
-  incidenceLocal_.resize(incidenceElement_.size());
+  incidence_.resize(static_cast<size_t>(incidenceStart_[N]));
   std::vector<int> fill(incidenceStart_.begin(), incidenceStart_.end() - 1);
   for (int k = 0; k < m; ++k)
     for (int j = 0; j < u; ++j) {
       const int at = fill[model_.unknown(k, j)]++;
-      incidenceElement_[at] = k;
-      incidenceLocal_[at] = j;
+      incidence_[at] = k * u + j;
     }
 }
 
 // Column p of A couples p with every unknown of the elements that touch p and, with the
 // facets' couplings, of their neighbours across a facet (the union of a facet's two elements).
 void RegularizedSystem::buildPattern(bool couplings) {
+  patternChanged_ = true;
   const int u = model_.localSize(), N = model_.numUnknowns();
   std::vector<int> outer(static_cast<size_t>(N) + 1, 0), inner, mark(static_cast<size_t>(N), -1);
   std::vector<int> column;
-  inner.reserve(static_cast<size_t>(incidenceElement_.size()) * (couplings ? 4 : 2));
+  inner.reserve(incidence_.size() * (couplings ? 4 : 2));
   for (int p = 0; p < N; ++p) {
     column.clear();
     auto addElement = [&](int k) {
@@ -76,7 +77,7 @@ void RegularizedSystem::buildPattern(bool couplings) {
       }
     };
     for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
-      const int k = incidenceElement_[at];
+      const int k = incidence_[at] / u;
       addElement(k);
       if (!couplings) continue;
       for (int g = regularizer_.facetBegin(k); g < regularizer_.facetEnd(k); ++g)
@@ -97,7 +98,6 @@ void RegularizedSystem::assemble() {
   const Discretization& disc = model_.discretization();
   const int m = disc.numElements(), r = model_.rows(), u = model_.localSize();
   const auto& facets = disc.facets();
-  const Eigen::Index mr = static_cast<Eigen::Index>(m) * r;
   double* values = A_.valuePtr();
   const int* outer = A_.outerIndexPtr();
   const int* inner = A_.innerIndexPtr();
@@ -107,11 +107,7 @@ void RegularizedSystem::assemble() {
     const int* end = inner + outer[col + 1];
     return values[std::lower_bound(begin, end, row) - inner];
   };
-  // L_k(row, j) of the stacked operators: column-major (m r) x u.
-  const double* L = model_.locals().data();
-  auto Lk = [&](int k, int row, int j) {
-    return L[j * mr + static_cast<Eigen::Index>(k) * r + row];
-  };
+  const ResidualModel::Operators Lk = model_.operators();
 
   // Elements: (1 - beta_k) a_k L_k^T L_k.
   const Eigen::VectorXd& elementWeight = regularizer_.elementWeight();
@@ -163,14 +159,13 @@ void RegularizedSystem::assemble() {
 void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd& b) const {
   const int m = model_.discretization().numElements(), r = model_.rows(), c = model_.columns();
   const int u = model_.localSize(), N = model_.numUnknowns();
-  const Eigen::Index mr = static_cast<Eigen::Index>(m) * r;
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
-  const double* L = model_.locals().data();
+  const ResidualModel::Operators L = model_.operators();
   const Eigen::VectorXd& elementWeight = regularizer_.elementWeight();
   const bool coupled = regularizer_.coupling();
   const size_t block = static_cast<size_t>(u) * c;
-  if (contribution_.size() != static_cast<size_t>(m) * block)
-    contribution_.resize(static_cast<size_t>(m) * block);
+  // Scratch for this call only: not kept beside the local step's arrays (peak memory).
+  const std::unique_ptr<double[]> contribution(new double[static_cast<size_t>(m) * block]);
   // Per element, in element order: tau_k = w_k t_k + sum_(facets kl) w_kl (t_k - t_l) and its
   // share L_k^T tau_k of the right-hand side (u x c, stored [k][j][col]), streaming through t
   // and the operators ...
@@ -188,12 +183,11 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
                    (tk - t(static_cast<Eigen::Index>(regularizer_.neighbour(g)) * r + a, col));
           tau[col * r + a] = sum;
         }
-      double* out = contribution_.data() + static_cast<size_t>(k) * block;
+      double* out = contribution.get() + static_cast<size_t>(k) * block;
       for (int j = 0; j < u; ++j) {
-        const double* Lj = L + j * mr + row;  // column j of L_k
         for (int col = 0; col < c; ++col) {
           double sum = 0.0;
-          for (int a = 0; a < r; ++a) sum += Lj[a] * tau[col * r + a];
+          for (int a = 0; a < r; ++a) sum += L(k, a, j) * tau[col * r + a];
           out[j * c + col] = sum;
         }
       }
@@ -207,9 +201,8 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
     for (int p = begin; p < end; ++p) {
       for (int col = 0; col < c; ++col) acc[col] = 0.0;
       for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
-        const double* share = contribution_.data() +
-                              static_cast<size_t>(incidenceElement_[at]) * block +
-                              static_cast<size_t>(incidenceLocal_[at]) * c;
+        // Share (k, j) is at (k u + j) c: the incidence entry itself, scaled.
+        const double* share = contribution.get() + static_cast<size_t>(incidence_[at]) * c;
         for (int col = 0; col < c; ++col) acc[col] += share[col];
       }
       for (int col = 0; col < c; ++col) b(p, col) = acc[col];
@@ -309,7 +302,8 @@ void RegularizedSystem::prepare() {
   }
   if (matrixDirty_) {
     try {
-      solver_.setMatrix(A_);
+      solver_.setMatrix(A_, !patternChanged_);
+      patternChanged_ = false;
     } catch (const SingularSystem& e) {
       // E.g. lARAP on a flat surface leaves out-of-plane motion free to first order.
       throw SingularSystem(std::string("deformation: the ") + toString(model_.energy()) +

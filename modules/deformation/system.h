@@ -65,6 +65,10 @@ class RegularizedSystem {
   /// Hessian of the quasi-Newton iteration. Factorizes if needed.
   /// \throw SingularSystem as solve().
   Eigen::MatrixXd applyInverse(const Eigen::MatrixXd& r);
+  /// Checks solvability, analyzes and factorizes now what changed (the solves do it on demand):
+  /// done before the right-hand side, the factorization's peak memory does not meet its
+  /// scratch space. \throw SingularSystem as solve().
+  void factorize() { prepare(); }
   /// Sets the rows of the fixed unknowns to zero. Factorizes if needed.
   void zeroFixed(Eigen::MatrixXd& x);
 
@@ -86,13 +90,13 @@ class RegularizedSystem {
   Regularizer regularizer_;
   std::vector<int> handles_;
   // Per unknown p: the (element, local unknown) pairs that touch it, CSR.
-  std::vector<int> incidenceStart_, incidenceElement_, incidenceLocal_;
+  std::vector<int> incidenceStart_, incidence_;  // incidence_: k localSize() + j
   bool reserveCouplings_ = true, couplings_ = false;
   SparseMatrix A_;
-  mutable std::vector<double> contribution_;  // per element L_k^T tau_k, reused
   Eigen::MatrixXd b_;                         // right-hand side, reused
   EliminatedSolver solver_;
   bool partitionDirty_ = true, matrixDirty_ = true;
+  bool patternChanged_ = true;  // since the solver last saw A_
 };
 
 }  // namespace diffreg

@@ -219,6 +219,11 @@ SpdSolver& SpdSolver::operator=(SpdSolver&&) noexcept = default;
 
 SolverInfo SpdSolver::info() const { return impl_->info; }
 
+void SpdSolver::keepPattern(bool keep) {
+  keepPattern_ = keep;
+  if (!keep) std::vector<int>().swap(pattern_);
+}
+
 namespace {
 std::vector<int> patternOf(const SparseMatrix& A) {
   std::vector<int> p(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
@@ -240,15 +245,17 @@ void SpdSolver::analyze(const SparseMatrix& A) {
   factorized_ = false;
   size_ = A.rows();
   analyzedEmpty_ = A.rows() == 0;
+  analyzed_ = false;
   if (!A.isCompressed()) {
     SparseMatrix C = A;
     C.makeCompressed();
-    pattern_ = patternOf(C);
+    if (keepPattern_) pattern_ = patternOf(C);
     if (!analyzedEmpty_) impl_->analyze(C);
   } else {
-    pattern_ = patternOf(A);
+    if (keepPattern_) pattern_ = patternOf(A);
     if (!analyzedEmpty_) impl_->analyze(A);
   }
+  analyzed_ = true;
   stats_.symbolic += 1;
   stats_.symbolicSeconds += timer.seconds();
 }
@@ -284,7 +291,9 @@ void SpdSolver::compute(const SparseMatrix& A, bool analyzeAgain) {
     C.makeCompressed();
     M = &C;
   }
-  if (analyzeAgain || !analyzed() || M->rows() != size_ || !samePattern(*M, pattern_)) analyze(*M);
+  if (analyzeAgain || !keepPattern_ || !analyzed() || M->rows() != size_ ||
+      !samePattern(*M, pattern_))
+    analyze(*M);
   factorize(*M);
 }
 
@@ -368,14 +377,26 @@ void EliminatedSolver::setPartition(Partition partition) {
   forceAnalyze_ = true;  // a new split is a new pattern (paper Fig. 5: handles added/removed)
 }
 
-void EliminatedSolver::setMatrix(const SparseMatrix& A) {
+void EliminatedSolver::trustPatterns() {
+  trusted_ = true;
+  solver_.keepPattern(false);
+}
+
+void EliminatedSolver::setMatrix(const SparseMatrix& A, bool samePattern) {
   if (A.rows() != partition_.size() || A.cols() != partition_.size())
     throw InvalidParameter("solver: matrix size " + std::to_string(A.rows()) +
                            " does not match the partition (" + std::to_string(partition_.size()) +
                            " unknowns)");
-  const SparseMatrix AFF = partition_.freeFree(A);
   AFJ_ = partition_.freeFixed(A);
-  solver_.compute(AFF, forceAnalyze_);
+  {
+    // The solver reads the lower triangle only: keeping just that halves the copy that lives
+    // through the factorization (and the pattern kept for comparison).
+    const SparseMatrix AFF = SparseMatrix(partition_.freeFree(A).triangularView<Eigen::Lower>());
+    if (trusted_ && samePattern && !forceAnalyze_ && solver_.analyzed())
+      solver_.factorize(AFF);
+    else
+      solver_.compute(AFF, forceAnalyze_);
+  }
   forceAnalyze_ = false;
 }
 

@@ -35,7 +35,11 @@ class SpdSolver {
   /// \throw SingularSystem when nothing is factorized or the solution is not finite;
   ///        InvalidParameter when B's row count is not the size of A.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& B);
-  bool analyzed() const { return !pattern_.empty() || analyzedEmpty_; }
+  bool analyzed() const { return analyzed_; }
+  /// Whether analyze() keeps a copy of the pattern (4 bytes per nonzero) for compute() to
+  /// compare against (the default). A caller that knows when its pattern changes may turn it
+  /// off: compute() then analyzes every time, and factorize() is the numeric-only path.
+  void keepPattern(bool keep);
   const SolverStats& stats() const { return stats_; }
   /// Method, ordering and size of the last analysis.
   SolverInfo info() const;
@@ -45,7 +49,7 @@ class SpdSolver {
   std::unique_ptr<Impl> impl_;
   SolverStats stats_;
   std::vector<int> pattern_;  // outer then inner indices of the analyzed matrix
-  bool analyzedEmpty_ = false, factorized_ = false;
+  bool analyzedEmpty_ = false, factorized_ = false, analyzed_ = false, keepPattern_ = true;
   Eigen::Index size_ = 0;
 };
 
@@ -88,7 +92,13 @@ class EliminatedSolver {
   const Partition& partition() const { return partition_; }
   /// Factorizes A (n x n, symmetric); analyzes only when the partition or A_FF's pattern
   /// changed. \throw SingularSystem when A_FF is not positive definite.
-  void setMatrix(const SparseMatrix& A);
+  void setMatrix(const SparseMatrix& A) { setMatrix(A, false); }
+  /// After trustPatterns(): `samePattern` is the caller's word that A has the pattern of the
+  /// previous call (then one numeric factorization); otherwise A is analyzed again.
+  void setMatrix(const SparseMatrix& A, bool samePattern);
+  /// The caller will say when A's pattern changes (setMatrix(A, samePattern)): no copy of the
+  /// pattern is kept for comparison.
+  void trustPatterns();
   /// Full solution (n rows) for right-hand side b (n rows) and fixed values xFixed.
   /// \throw SingularSystem when the solution is not finite.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b, const Eigen::MatrixXd& xFixed);
@@ -99,7 +109,7 @@ class EliminatedSolver {
   Partition partition_;
   SpdSolver solver_;
   SparseMatrix AFJ_;
-  bool forceAnalyze_ = true;
+  bool forceAnalyze_ = true, trusted_ = false;
 };
 
 }  // namespace diffreg
