@@ -223,12 +223,13 @@ double DeformationCore::plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t) {
   return local(X, t);
 }
 
-Eigen::MatrixXd DeformationCore::gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t) {
-  Eigen::MatrixXd b;
-  system_.rightHandSide(t, b);
-  Eigen::MatrixXd g = system_.matrix() * X;
-  g -= b;
-  system_.zeroFixed(g);
+Eigen::MatrixXd DeformationCore::gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t,
+                                          bool afterLocal) {
+  // Right after the local step at X its F_ is at hand (the sweeps release it; then, and
+  // otherwise, F is computed again).
+  if (!afterLocal || F_.rows() != t.rows() || F_.cols() != t.cols()) model_.gradients(X, F_);
+  Eigen::MatrixXd g;
+  system_.residualGradient(F_, t, g);
   return g;
 }
 
@@ -242,7 +243,7 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
   Eigen::MatrixXd g = gradient(X, t_), trial, trialT;
   auto accept = [&](double energy) {
     const double decrease = E > 0.0 ? std::max(0.0, (E - energy) / E) : 0.0;
-    Eigen::MatrixXd gNew = gradient(trial, trialT);
+    Eigen::MatrixXd gNew = gradient(trial, trialT, true);  // accept() follows a local step
     history.add(trial - X, gNew - g);
     g.swap(gNew);
     advance(X, trial, trialT, energy, E, result);

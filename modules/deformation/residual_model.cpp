@@ -35,11 +35,10 @@ double chunkedSum(int n, const Body& body) {
 }
 
 // F_k^T = G_k^T X_k for elements [begin, end) (separable layout, d x d blocks).
-template <int D>
+template <int D, int S>
 void gradientRange(const Discretization& disc, const Eigen::MatrixXd& X, Eigen::MatrixXd& F,
                    int begin, int end) {
-  constexpr int S = D == 2 ? 3 : -1;  // element size known at compile time for planar meshes
-  const int s = S > 0 ? S : disc.elementSize();
+  constexpr int s = S;  // element size: 3 (triangles) or 4 (tets)
   const Eigen::MatrixXi& el = disc.elements();
   const Eigen::MatrixXd& grads = disc.gradients();
   for (int k = begin; k < end; ++k) {
@@ -154,9 +153,11 @@ void ResidualModel::gradients(const Eigen::MatrixXd& X, Eigen::MatrixXd& F) cons
   }
   parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
     if (dim_ == 2)
-      gradientRange<2>(disc_, X, F, begin, end);
+      gradientRange<2, 3>(disc_, X, F, begin, end);
+    else if (elementSize_ == 3)
+      gradientRange<3, 3>(disc_, X, F, begin, end);
     else
-      gradientRange<3>(disc_, X, F, begin, end);
+      gradientRange<3, 4>(disc_, X, F, begin, end);
   });
 }
 
@@ -246,9 +247,12 @@ namespace {
 
 // Sum over elements of (1 - beta_k) a_k |block_k|^2 and over facets of beta_kl c_kl
 // |block_k - block_l|^2 for blocks given by `block(k, a, b)`, scaled to the unit mean edge.
-template <class Block>
-double blendedEnergy(const Discretization& disc, const RegularizationWeights& w, int rows,
-                     int columns, double aScale, const Block& block) {
+// Sizes > 0: known at compile time (the separable layouts' d x d blocks), else `rows` and
+// `columns` at run time.
+template <int Rows, int Columns, class Block>
+double blendedEnergySized(const Discretization& disc, const RegularizationWeights& w, int runRows,
+                          int runColumns, double aScale, const Block& block) {
+  const int rows = Rows > 0 ? Rows : runRows, columns = Columns > 0 ? Columns : runColumns;
   const double elementSum = chunkedSum(disc.numElements(), [&](int begin, int end) {
     double sum = 0.0;
     for (int k = begin; k < end; ++k) {
@@ -283,6 +287,16 @@ double blendedEnergy(const Discretization& disc, const RegularizationWeights& w,
   // Physical a_k and c_kl rescaled to the unit-mean-edge mesh: a' = ell^-md a,
   // c' = ell^-(md-1) c.
   return aScale * elementSum + aScale * disc.meanEdgeLength() * facetSum;
+}
+
+template <class Block>
+double blendedEnergy(const Discretization& disc, const RegularizationWeights& w, int rows,
+                     int columns, double aScale, const Block& block) {
+  if (rows == 3 && columns == 3)
+    return blendedEnergySized<3, 3>(disc, w, rows, columns, aScale, block);
+  if (rows == 2 && columns == 2)
+    return blendedEnergySized<2, 2>(disc, w, rows, columns, aScale, block);
+  return blendedEnergySized<-1, -1>(disc, w, rows, columns, aScale, block);
 }
 
 }  // namespace

@@ -58,7 +58,9 @@ class DeformationCore {
   // Returns its energy (at most the energy of the shape t was fitted to).
   double plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t);
   // The energy gradient's direction A X - C t on the free unknowns (0 on the fixed ones).
-  Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t);
+  // `afterLocal`: the last local step was at X, so its F_ may serve.
+  Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t,
+                           bool afterLocal = false);
   void iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                         DeformationResult& result);
   Eigen::MatrixXd restSolve();

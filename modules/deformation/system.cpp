@@ -15,6 +15,53 @@ namespace {
 constexpr int kGrain = 2048;  // elements or unknowns per parallel chunk
 constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
 
+// The separable layout's shares L_k^T tau_k with its sizes known at compile time (R = d rows and
+// columns, U = element size): L_k = G_k^T read straight from the stacked gradients, tau_k from
+// t or from F - t (Residual), written [k][j][col] into `out`.
+template <int R, int U, bool Residual>
+void separableShares(const Eigen::MatrixXd& G, const Eigen::MatrixXd& t, const Eigen::MatrixXd* F,
+                     const Regularizer& reg, bool coupled, int begin, int end, double* out) {
+  const Eigen::VectorXd& wk = reg.elementWeight();
+  const double* td = t.data();
+  const double* Fd = Residual ? F->data() : nullptr;
+  const Eigen::Index ld = t.rows(), ldG = G.rows();
+  const double* Gd = G.data();
+  auto value = [&](Eigen::Index at) { return Residual ? Fd[at] - td[at] : td[at]; };
+  for (int k = begin; k < end; ++k) {
+    const Eigen::Index row = static_cast<Eigen::Index>(k) * R;
+    double tau[R * R];  // [col][a]
+    for (int col = 0; col < R; ++col)
+      for (int a = 0; a < R; ++a) {
+        const double tk = value(col * ld + row + a);
+        double sum = wk(k) * tk;
+        for (int g = reg.facetBegin(k); coupled && g < reg.facetEnd(k); ++g)
+          sum += reg.neighbourWeight(g) *
+                 (tk - value(col * ld + static_cast<Eigen::Index>(reg.neighbour(g)) * R + a));
+        tau[col * R + a] = sum;
+      }
+    double* share = out + static_cast<size_t>(k) * U * R;
+    const Eigen::Index g0 = static_cast<Eigen::Index>(k) * U;
+    for (int j = 0; j < U; ++j) {
+      double Lj[R];  // column j of L_k = row j of G_k
+      for (int a = 0; a < R; ++a) Lj[a] = Gd[a * ldG + g0 + j];
+      for (int col = 0; col < R; ++col) {
+        double sum = 0.0;
+        for (int a = 0; a < R; ++a) sum += Lj[a] * tau[col * R + a];
+        share[j * R + col] = sum;
+      }
+    }
+  }
+}
+
+template <int R, int U>
+void separableShares(const Eigen::MatrixXd& G, const Eigen::MatrixXd& t, const Eigen::MatrixXd* F,
+                     const Regularizer& reg, bool coupled, int begin, int end, double* out) {
+  if (F)
+    separableShares<R, U, true>(G, t, F, reg, coupled, begin, end, out);
+  else
+    separableShares<R, U, false>(G, t, F, reg, coupled, begin, end, out);
+}
+
 }  // namespace
 
 RegularizedSystem::RegularizedSystem(const ResidualModel& model, SolverBackend backend,
@@ -157,6 +204,21 @@ void RegularizedSystem::assemble() {
 }
 
 void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd& b) const {
+  applyC(t, nullptr, b);
+}
+
+void RegularizedSystem::residualGradient(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t,
+                                         Eigen::MatrixXd& g) {
+  applyC(t, &F, g);
+  zeroFixed(g);
+}
+
+void RegularizedSystem::applyC(const Eigen::MatrixXd& t, const Eigen::MatrixXd* F,
+                               Eigen::MatrixXd& b) const {
+  // With F: C (F - t), the residuals' values read on the fly.
+  auto value = [&](Eigen::Index row, int col) {
+    return F ? (*F)(row, col) - t(row, col) : t(row, col);
+  };
   const int m = model_.discretization().numElements(), r = model_.rows(), c = model_.columns();
   const int u = model_.localSize(), N = model_.numUnknowns();
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
@@ -169,18 +231,27 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
   // Per element, in element order: tau_k = w_k t_k + sum_(facets kl) w_kl (t_k - t_l) and its
   // share L_k^T tau_k of the right-hand side (u x c, stored [k][j][col]), streaming through t
   // and the operators ...
+  const Eigen::MatrixXd& G = model_.discretization().gradients();
+  const bool separable = !model_.coupled();
+  const int d = model_.discretization().dim(), s = model_.discretization().elementSize();
   parallel::forChunks(m, kGrain, [&](int, int begin, int end) {
+    if (separable && d == 3 && s == 3)
+      return separableShares<3, 3>(G, t, F, regularizer_, coupled, begin, end, contribution.get());
+    if (separable && d == 3 && s == 4)
+      return separableShares<3, 4>(G, t, F, regularizer_, coupled, begin, end, contribution.get());
+    if (separable && d == 2)
+      return separableShares<2, 3>(G, t, F, regularizer_, coupled, begin, end, contribution.get());
     double tau[kMaxBlock];
     for (int k = begin; k < end; ++k) {
       const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
       const double wk = elementWeight(k);
       for (int col = 0; col < c; ++col)
         for (int a = 0; a < r; ++a) {
-          const double tk = t(row + a, col);
+          const double tk = value(row + a, col);
           double sum = wk * tk;
           for (int g = regularizer_.facetBegin(k); g < regularizer_.facetEnd(k) && coupled; ++g)
             sum += regularizer_.neighbourWeight(g) *
-                   (tk - t(static_cast<Eigen::Index>(regularizer_.neighbour(g)) * r + a, col));
+                   (tk - value(static_cast<Eigen::Index>(regularizer_.neighbour(g)) * r + a, col));
           tau[col * r + a] = sum;
         }
       double* out = contribution.get() + static_cast<size_t>(k) * block;
@@ -194,8 +265,7 @@ void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd&
     }
   });
   // ... then gathered per unknown over its (element, local unknown) pairs, one contiguous
-  // share each (gathering L_k^T w_k t_k directly reads four scattered cache lines per pair:
-  // measured twice as slow without regularization).
+  // share each (gathering L_k^T w_k t_k directly reads four scattered cache lines per pair).
   parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
     double acc[kMaxBlock];
     for (int p = begin; p < end; ++p) {

@@ -76,6 +76,10 @@ class RegularizedSystem {
   const SparseMatrix& matrix() const { return A_; }
   /// The right-hand side C t (numUnknowns() x model().columns()) for stacked targets t.
   void rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd& b) const;
+  /// The energy gradient's direction A x - C t = C (F - t) for F the stacked L_k x_k of the
+  /// same x (ResidualModel::gradients), on the free unknowns (0 on the fixed ones): one pass
+  /// over the elements instead of a product with A and a right-hand side. Factorizes if needed.
+  void residualGradient(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t, Eigen::MatrixXd& g);
   const SolverStats& stats() const { return solver_.stats(); }
   const ResidualModel& model() const { return model_; }
 
@@ -83,6 +87,8 @@ class RegularizedSystem {
   void buildTopology();
   void buildPattern(bool couplings);
   void assemble();
+  // b = C t, or C (F - t) when F is given.
+  void applyC(const Eigen::MatrixXd& t, const Eigen::MatrixXd* F, Eigen::MatrixXd& b) const;
   // Checks solvability, analyzes and factorizes what changed.
   void prepare();
 
