@@ -188,15 +188,24 @@ void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) con
     t = fixedTargets_;
     return;
   }
+  // Block k of F is F_k^T, so C = F_k is its transpose; the target's block is T^T.
+  const bool surface = disc_.kind() == MeshKind::Surface;
   parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
-    double Ct[9], Tt[9];
     for (int k = begin; k < end; ++k) {
-      const Eigen::Index row = static_cast<Eigen::Index>(k) * dim_;
-      for (int a = 0; a < dim_; ++a)
-        for (int b = 0; b < dim_; ++b) Ct[a * dim_ + b] = F(row + a, b);
-      fitElement(Ct, 1.0, k, Tt);
-      for (int a = 0; a < dim_; ++a)
-        for (int b = 0; b < dim_; ++b) t(row + a, b) = Tt[a * dim_ + b];
+      if (dim_ == 2) {
+        const Eigen::Index row = static_cast<Eigen::Index>(k) * 2;
+        const Eigen::Matrix2d C = F.block<2, 2>(row, 0).transpose();
+        t.block<2, 2>(row, 0) = energy_.fit(C, 1.0).transpose();
+        continue;
+      }
+      const Eigen::Index row = static_cast<Eigen::Index>(k) * 3;
+      const Eigen::Matrix3d C = F.block<3, 3>(row, 0).transpose();
+      if (surface) {
+        const Eigen::Vector3d n = disc_.normals().row(k).transpose();
+        t.block<3, 3>(row, 0) = energy_.fit(C, 1.0, &n).transpose();
+      } else {
+        t.block<3, 3>(row, 0) = energy_.fit(C, 1.0, nullptr).transpose();
+      }
     }
   });
 }

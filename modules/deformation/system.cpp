@@ -30,14 +30,16 @@ void separableShares(const Eigen::MatrixXd& G, const Eigen::MatrixXd& t, const E
   for (int k = begin; k < end; ++k) {
     const Eigen::Index row = static_cast<Eigen::Index>(k) * R;
     double tau[R * R];  // [col][a]
+    const double w = wk(k);
     for (int col = 0; col < R; ++col)
-      for (int a = 0; a < R; ++a) {
-        const double tk = value(col * ld + row + a);
-        double sum = wk(k) * tk;
-        for (int g = reg.facetBegin(k); coupled && g < reg.facetEnd(k); ++g)
-          sum += reg.neighbourWeight(g) *
-                 (tk - value(col * ld + static_cast<Eigen::Index>(reg.neighbour(g)) * R + a));
-        tau[col * R + a] = sum;
+      for (int a = 0; a < R; ++a) tau[col * R + a] = w * value(col * ld + row + a);
+    if (coupled)
+      for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
+        const double wg = reg.neighbourWeight(g);
+        const Eigen::Index other = static_cast<Eigen::Index>(reg.neighbour(g)) * R;
+        for (int col = 0; col < R; ++col)
+          for (int a = 0; a < R; ++a)
+            tau[col * R + a] += wg * (value(col * ld + row + a) - value(col * ld + other + a));
       }
     double* share = out + static_cast<size_t>(k) * U * R;
     const Eigen::Index g0 = static_cast<Eigen::Index>(k) * U;
