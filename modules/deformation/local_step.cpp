@@ -15,17 +15,22 @@ constexpr int kGrain = 1024;  // elements per parallel chunk
 // neighbours are a few cache lines each (the sweeps visit a colour's elements all over the mesh).
 using Blocks = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// Copies stacked (m d x d) into `out` (m x d^2), which must have that size.
-void toBlocks(const Eigen::MatrixXd& stacked, int d, Blocks& out) {
-  const Eigen::Index m = stacked.rows() / d;
-  for (Eigen::Index k = 0; k < m; ++k)
-    for (int a = 0; a < d; ++a)
-      for (int b = 0; b < d; ++b) out(k, a * d + b) = stacked(k * d + a, b);
+// Copies stacked (m d x d) into `out` (m x d^2), which must have that size (in parallel: at a
+// million elements the copies are as long as a sweep's colour).
+template <int D>
+void toBlocks(const Eigen::MatrixXd& stacked, Blocks& out) {
+  const int m = static_cast<int>(stacked.rows() / D);
+  parallel::forChunks(m, 4 * kGrain, [&](int, int begin, int end) {
+    for (Eigen::Index k = begin; k < end; ++k)
+      for (int a = 0; a < D; ++a)
+        for (int b = 0; b < D; ++b) out(k, a * D + b) = stacked(k * D + a, b);
+  });
 }
 
-Blocks toBlocks(const Eigen::MatrixXd& stacked, int d) {
-  Blocks out(stacked.rows() / d, d * d);
-  toBlocks(stacked, d, out);
+template <int D>
+Blocks toBlocks(const Eigen::MatrixXd& stacked) {
+  Blocks out(stacked.rows() / D, D * D);
+  toBlocks<D>(stacked, out);
   return out;
 }
 
@@ -40,17 +45,20 @@ Blocks fitBlocks(const ResidualModel& model, const Blocks& F) {
   return t;
 }
 
-void fromBlocks(const Blocks& blocks, int d, Eigen::MatrixXd& stacked) {
-  for (Eigen::Index k = 0; k < blocks.rows(); ++k)
-    for (int a = 0; a < d; ++a)
-      for (int b = 0; b < d; ++b) stacked(k * d + a, b) = blocks(k, a * d + b);
+template <int D>
+void fromBlocks(const Blocks& blocks, Eigen::MatrixXd& stacked) {
+  parallel::forChunks(static_cast<int>(blocks.rows()), 4 * kGrain, [&](int, int begin, int end) {
+    for (Eigen::Index k = begin; k < end; ++k)
+      for (int a = 0; a < D; ++a)
+        for (int b = 0; b < D; ++b) stacked(k * D + a, b) = blocks(k, a * D + b);
+  });
 }
 
-// One colour of the exact sweep: T_k = fit(C_k, weight) for its elements.
+// One colour of the exact sweep: T_k = fit(C_k, weight) for its elements (D x D blocks).
+template <int D>
 void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::vector<int>& ids,
                  const Blocks& F, Blocks& t) {
-  const int d = model.rows();  // separable layout: d x d blocks
-  const int dd = d * d;
+  constexpr int dd = D * D;
   const Eigen::VectorXd& wk = reg.elementWeight();
   parallel::forChunks(static_cast<int>(ids.size()), kGrain, [&](int, int begin, int end) {
     double Ct[9];
@@ -77,6 +85,30 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
   });
 }
 
+// The exact step's sweeps from F (released) and the previous targets t (if any).
+template <int D>
+double sweeps(const ResidualModel& model, const Regularizer& reg, Eigen::MatrixXd& t,
+              Eigen::MatrixXd& F) {
+  const Eigen::Index rows = F.rows(), cols = F.cols();
+  const Blocks Fb = toBlocks<D>(F);
+  F.resize(0, 0);
+  // Start from the previous targets or from the per-element fit, whichever is lower: the
+  // sweeps then lower the energy further, so the step never raises it, and the per-element fit
+  // brings the rotations along at once where the shape has turned. Without previous targets
+  // the sweeps start from the fit.
+  Blocks tb = fitBlocks(model, Fb);
+  if (t.rows() == rows && t.cols() == cols &&
+      !(model.blockEnergy(Fb.data(), tb.data(), reg.weights()) <
+        model.blockEnergy(Fb.data(), t, reg.weights())))
+    toBlocks<D>(t, tb);
+  t.resize(0, 0);
+  for (int i = 0; i < kLocalSweeps; ++i)
+    for (const std::vector<int>& ids : reg.colours()) sweepColour<D>(model, reg, ids, Fb, tb);
+  t.resize(rows, cols);
+  fromBlocks<D>(tb, t);
+  return model.blockEnergy(Fb.data(), tb.data(), reg.weights());
+}
+
 }  // namespace
 
 double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep step,
@@ -91,25 +123,7 @@ double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep s
   }
   // The sweeps work on row-major copies of F and t. F (scratch) and t are released meanwhile,
   // so the step holds at most three such arrays at once.
-  const int d = model.rows();
-  const Eigen::Index rows = F.rows(), cols = F.cols();
-  const Blocks Fb = toBlocks(F, d);
-  F.resize(0, 0);
-  // Start from the previous targets or from the per-element fit, whichever is lower: the
-  // sweeps then lower the energy further, so the step never raises it, and the per-element fit
-  // brings the rotations along at once where the shape has turned. Without previous targets
-  // the sweeps start from the fit.
-  Blocks tb = fitBlocks(model, Fb);
-  if (t.rows() == rows && t.cols() == cols &&
-      !(model.blockEnergy(Fb.data(), tb.data(), reg.weights()) <
-        model.blockEnergy(Fb.data(), t, reg.weights())))
-    toBlocks(t, d, tb);
-  t.resize(0, 0);
-  for (int i = 0; i < kLocalSweeps; ++i)
-    for (const std::vector<int>& ids : reg.colours()) sweepColour(model, reg, ids, Fb, tb);
-  t.resize(rows, cols);
-  fromBlocks(tb, d, t);
-  return model.blockEnergy(Fb.data(), tb.data(), reg.weights());
+  return model.rows() == 3 ? sweeps<3>(model, reg, t, F) : sweeps<2>(model, reg, t, F);
 }
 
 double relaxedEnergy(const ResidualModel& model, const Regularizer& reg,
