@@ -2,10 +2,13 @@
 #include "test_deformation_fixtures.h"
 
 #include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/system.h>
 
 #include <diffreg/core/error.h>
 
 #include <catch2/catch.hpp>
+
+#include <cmath>
 
 using namespace diffreg;
 using namespace diffreg::testing;
@@ -160,6 +163,38 @@ TEST_CASE("with beta = 0 the ARAP system matrix is the cotangent stiffness K",
     CHECK((s.systemMatrix() - disc->stiffness()).cwiseAbs().sum() <
           1e-12 * disc->stiffness().cwiseAbs().sum());
   }
+}
+
+TEST_CASE("the gradient from the residuals, C (F - t), is A x - C t on the free unknowns",
+          "[deformation][system]") {
+  for (MeshKind kind : kAllKinds)
+    for (Energy energy : kAllEnergies)
+      for (Regularization mode : {Regularization::None, Regularization::Nonuniform}) {
+        INFO(toString(kind) << " " << toString(energy) << " " << toString(mode));
+        const auto disc = makeBar(kind);
+        const ResidualModel model(*disc, energy);
+        RegularizedSystem system(model);
+        const std::vector<int> handles = bothEnds(*disc);
+        system.setHandles(handles);
+        system.setWeights(makeRegularizationWeights(
+            *disc, mode, 0.5, Eigen::VectorXd::LinSpaced(disc->numVertices(), 0.1, 0.9)));
+        // Some shape and some targets, not related to each other.
+        Eigen::MatrixXd X = disc->rest();
+        for (Eigen::Index v = 0; v < X.rows(); ++v)
+          X.row(v) += 0.1 * Eigen::RowVectorXd::LinSpaced(X.cols(), std::sin(v), std::cos(3 * v));
+        Eigen::MatrixXd t, F, b;
+        model.targets(X, t);
+        t *= 0.9;
+        model.gradients(X, F);
+        const Eigen::MatrixXd x = model.toUnknowns(X);
+        system.rightHandSide(t, b);
+        Eigen::MatrixXd expected = system.matrix() * x - b, g;
+        system.zeroFixed(expected);
+        system.residualGradient(F, t, g);
+        REQUIRE(g.rows() == expected.rows());
+        CHECK((g - expected).cwiseAbs().maxCoeff() <= 1e-10 * expected.cwiseAbs().maxCoeff());
+        CHECK(expected.cwiseAbs().maxCoeff() > 0.0);
+      }
 }
 
 TEST_CASE("the ARAP energy never increases across iterations when beta = 0",

@@ -99,6 +99,46 @@ TEST_CASE("Dirichlet elimination: harmonic interpolation of a linear function is
   CHECK(solver.stats().symbolic == 2);
 }
 
+TEST_CASE("a solver told when its pattern changes keeps no copy and still analyzes when it must",
+          "[solver]") {
+  const int n = 30;
+  std::vector<bool> fixed(n, false);
+  fixed[0] = fixed[n - 1] = true;
+  EliminatedSolver trusted, checking;
+  trusted.trustPatterns();
+  for (EliminatedSolver* s : {&trusted, &checking}) s->setPartition(Partition(fixed));
+  Eigen::MatrixXd xFixed(2, 1);
+  xFixed << 1.0, 30.0;
+  const Eigen::MatrixXd b = Eigen::MatrixXd::Ones(n, 1);
+  // Same pattern, new values: numeric only, the same solution as the solver that compares.
+  for (double scale : {1.0, 3.0}) {
+    trusted.setMatrix(scale * pathLaplacian(n), scale != 1.0);
+    checking.setMatrix(scale * pathLaplacian(n));
+    CHECK((trusted.solve(b, xFixed) - checking.solve(b, xFixed)).cwiseAbs().maxCoeff() < 1e-12);
+  }
+  CHECK(trusted.stats().symbolic == 1);
+  CHECK(trusted.stats().numeric == 2);
+  // A new pattern (a longer-range coupling) announced as such: analyzed again, right answer.
+  SparseMatrix wider = pathLaplacian(n);
+  for (int i = 0; i + 2 < n; ++i) {
+    wider.coeffRef(i, i + 2) -= 0.5;
+    wider.coeffRef(i + 2, i) -= 0.5;
+    wider.coeffRef(i, i) += 0.5;
+    wider.coeffRef(i + 2, i + 2) += 0.5;
+  }
+  wider.makeCompressed();
+  trusted.setMatrix(wider, false);
+  checking.setMatrix(wider);
+  CHECK(trusted.stats().symbolic == 2);
+  CHECK(checking.stats().symbolic == 2);
+  CHECK((trusted.solve(b, xFixed) - checking.solve(b, xFixed)).cwiseAbs().maxCoeff() < 1e-12);
+  // A new partition always analyzes again, whatever the caller says.
+  fixed[n / 2] = true;
+  trusted.setPartition(Partition(fixed));
+  trusted.setMatrix(wider, true);
+  CHECK(trusted.stats().symbolic == 3);
+}
+
 TEST_CASE("A free component without fixed values is a SingularSystem", "[solver]") {
   // Two disconnected paths; only the first has a fixed vertex.
   const int n = 10;
