@@ -15,53 +15,55 @@ namespace {
 constexpr int kGrain = 2048;  // elements or unknowns per parallel chunk
 constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
 
-// The separable layout's shares L_k^T tau_k with its sizes known at compile time (R = d rows and
-// columns, U = element size): L_k = G_k^T read straight from the stacked gradients, tau_k from
-// t or from F - t (Residual), written [k][j][col] into `out`.
-template <int R, int U, bool Residual>
-void separableShares(const Eigen::MatrixXd& G, const Eigen::MatrixXd& t, const Eigen::MatrixXd* F,
-                     const Regularizer& reg, bool coupled, int begin, int end, double* out) {
+// The shares L_k^T tau_k of elements [begin, end), written [k][j][col] into `out`, with
+// tau_k = w_k v_k + sum_(facets kl) w_kl (v_k - v_l) for v = t, or v = F - t (Residual). R rows,
+// C columns and U local unknowns per element: known at compile time for the separable layouts
+// (> 0), else `r`, `c`, `u` at run time.
+template <int R, int C, int U, bool Residual>
+void sharesOf(const ResidualModel::Operators& L, const Eigen::MatrixXd& t,
+              const Eigen::MatrixXd* F, const Regularizer& reg, int r_, int c_, int u_,
+              int begin, int end, double* out) {
+  const int r = R > 0 ? R : r_, c = C > 0 ? C : c_, u = U > 0 ? U : u_;
   const Eigen::VectorXd& wk = reg.elementWeight();
-  const double* td = t.data();
-  const double* Fd = Residual ? F->data() : nullptr;
-  const Eigen::Index ld = t.rows(), ldG = G.rows();
-  const double* Gd = G.data();
-  auto value = [&](Eigen::Index at) { return Residual ? Fd[at] - td[at] : td[at]; };
+  const bool coupled = reg.coupling();
+  auto value = [&](Eigen::Index row, int col) {
+    return Residual ? (*F)(row, col) - t(row, col) : t(row, col);
+  };
+  double tau[kMaxBlock];  // [col][a]
   for (int k = begin; k < end; ++k) {
-    const Eigen::Index row = static_cast<Eigen::Index>(k) * R;
-    double tau[R * R];  // [col][a]
+    const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
     const double w = wk(k);
-    for (int col = 0; col < R; ++col)
-      for (int a = 0; a < R; ++a) tau[col * R + a] = w * value(col * ld + row + a);
+    for (int col = 0; col < c; ++col)
+      for (int a = 0; a < r; ++a) tau[col * r + a] = w * value(row + a, col);
     if (coupled)
       for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
         const double wg = reg.neighbourWeight(g);
-        const Eigen::Index other = static_cast<Eigen::Index>(reg.neighbour(g)) * R;
-        for (int col = 0; col < R; ++col)
-          for (int a = 0; a < R; ++a)
-            tau[col * R + a] += wg * (value(col * ld + row + a) - value(col * ld + other + a));
+        const Eigen::Index other = static_cast<Eigen::Index>(reg.neighbour(g)) * r;
+        for (int col = 0; col < c; ++col)
+          for (int a = 0; a < r; ++a)
+            tau[col * r + a] += wg * (value(row + a, col) - value(other + a, col));
       }
-    double* share = out + static_cast<size_t>(k) * U * R;
-    const Eigen::Index g0 = static_cast<Eigen::Index>(k) * U;
-    for (int j = 0; j < U; ++j) {
-      double Lj[R];  // column j of L_k = row j of G_k
-      for (int a = 0; a < R; ++a) Lj[a] = Gd[a * ldG + g0 + j];
-      for (int col = 0; col < R; ++col) {
+    double* share = out + static_cast<size_t>(k) * u * c;
+    for (int j = 0; j < u; ++j) {
+      double Lj[kMaxBlock];  // column j of L_k
+      for (int a = 0; a < r; ++a) Lj[a] = L(k, a, j);
+      for (int col = 0; col < c; ++col) {
         double sum = 0.0;
-        for (int a = 0; a < R; ++a) sum += Lj[a] * tau[col * R + a];
-        share[j * R + col] = sum;
+        for (int a = 0; a < r; ++a) sum += Lj[a] * tau[col * r + a];
+        share[j * c + col] = sum;
       }
     }
   }
 }
 
-template <int R, int U>
-void separableShares(const Eigen::MatrixXd& G, const Eigen::MatrixXd& t, const Eigen::MatrixXd* F,
-                     const Regularizer& reg, bool coupled, int begin, int end, double* out) {
+template <int R, int C, int U>
+void sharesOf(const ResidualModel::Operators& L, const Eigen::MatrixXd& t,
+              const Eigen::MatrixXd* F, const Regularizer& reg, int r, int c, int u, int begin,
+              int end, double* out) {
   if (F)
-    separableShares<R, U, true>(G, t, F, reg, coupled, begin, end, out);
+    sharesOf<R, C, U, true>(L, t, F, reg, r, c, u, begin, end, out);
   else
-    separableShares<R, U, false>(G, t, F, reg, coupled, begin, end, out);
+    sharesOf<R, C, U, false>(L, t, F, reg, r, c, u, begin, end, out);
 }
 
 }  // namespace
@@ -217,54 +219,25 @@ void RegularizedSystem::residualGradient(const Eigen::MatrixXd& F, const Eigen::
 
 void RegularizedSystem::applyC(const Eigen::MatrixXd& t, const Eigen::MatrixXd* F,
                                Eigen::MatrixXd& b) const {
-  // With F: C (F - t), the residuals' values read on the fly.
-  auto value = [&](Eigen::Index row, int col) {
-    return F ? (*F)(row, col) - t(row, col) : t(row, col);
-  };
   const int m = model_.discretization().numElements(), r = model_.rows(), c = model_.columns();
   const int u = model_.localSize(), N = model_.numUnknowns();
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
   const ResidualModel::Operators L = model_.operators();
-  const Eigen::VectorXd& elementWeight = regularizer_.elementWeight();
-  const bool coupled = regularizer_.coupling();
   const size_t block = static_cast<size_t>(u) * c;
   // Scratch for this call only: not kept beside the local step's arrays (peak memory).
   const std::unique_ptr<double[]> contribution(new double[static_cast<size_t>(m) * block]);
-  // Per element, in element order: tau_k = w_k t_k + sum_(facets kl) w_kl (t_k - t_l) and its
-  // share L_k^T tau_k of the right-hand side (u x c, stored [k][j][col]), streaming through t
-  // and the operators ...
-  const Eigen::MatrixXd& G = model_.discretization().gradients();
-  const bool separable = !model_.coupled();
-  const int d = model_.discretization().dim(), s = model_.discretization().elementSize();
+  // Per element, in element order, its share L_k^T tau_k of the right-hand side, streaming
+  // through t and the operators ...
   parallel::forChunks(m, kGrain, [&](int, int begin, int end) {
-    if (separable && d == 3 && s == 3)
-      return separableShares<3, 3>(G, t, F, regularizer_, coupled, begin, end, contribution.get());
-    if (separable && d == 3 && s == 4)
-      return separableShares<3, 4>(G, t, F, regularizer_, coupled, begin, end, contribution.get());
-    if (separable && d == 2)
-      return separableShares<2, 3>(G, t, F, regularizer_, coupled, begin, end, contribution.get());
-    double tau[kMaxBlock];
-    for (int k = begin; k < end; ++k) {
-      const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
-      const double wk = elementWeight(k);
-      for (int col = 0; col < c; ++col)
-        for (int a = 0; a < r; ++a) {
-          const double tk = value(row + a, col);
-          double sum = wk * tk;
-          for (int g = regularizer_.facetBegin(k); g < regularizer_.facetEnd(k) && coupled; ++g)
-            sum += regularizer_.neighbourWeight(g) *
-                   (tk - value(static_cast<Eigen::Index>(regularizer_.neighbour(g)) * r + a, col));
-          tau[col * r + a] = sum;
-        }
-      double* out = contribution.get() + static_cast<size_t>(k) * block;
-      for (int j = 0; j < u; ++j) {
-        for (int col = 0; col < c; ++col) {
-          double sum = 0.0;
-          for (int a = 0; a < r; ++a) sum += L(k, a, j) * tau[col * r + a];
-          out[j * c + col] = sum;
-        }
-      }
-    }
+    double* out = contribution.get();
+    if (!model_.coupled() && r == 3 && u == 3)
+      sharesOf<3, 3, 3>(L, t, F, regularizer_, r, c, u, begin, end, out);
+    else if (!model_.coupled() && r == 3 && u == 4)
+      sharesOf<3, 3, 4>(L, t, F, regularizer_, r, c, u, begin, end, out);
+    else if (!model_.coupled() && r == 2 && u == 3)
+      sharesOf<2, 2, 3>(L, t, F, regularizer_, r, c, u, begin, end, out);
+    else
+      sharesOf<-1, -1, -1>(L, t, F, regularizer_, r, c, u, begin, end, out);
   });
   // ... then gathered per unknown over its (element, local unknown) pairs, one contiguous
   // share each (gathering L_k^T w_k t_k directly reads four scattered cache lines per pair).
