@@ -174,11 +174,14 @@ void ResidualModel::fitElement(const double* Ct, double weight, int k, double* T
   Eigen::Matrix3d C;
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) C(b, a) = Ct[a * 3 + b];
-  const bool surface = disc_.kind() == MeshKind::Surface;
-  const Eigen::Vector3d n = surface ? Eigen::Vector3d(disc_.normals().row(k).transpose())
-                                    : Eigen::Vector3d::Zero();
   Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> out(Tt);
-  out = energy_.fit(C, weight, surface ? &n : nullptr).transpose();
+  out = fit3(C, weight, k).transpose();
+}
+
+Eigen::Matrix3d ResidualModel::fit3(const Eigen::Matrix3d& C, double weight, int k) const {
+  if (disc_.kind() != MeshKind::Surface) return energy_.fit(C, weight, nullptr);
+  const Eigen::Vector3d n = disc_.normals().row(k).transpose();
+  return energy_.fit(C, weight, &n);
 }
 
 void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) const {
@@ -189,7 +192,6 @@ void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) con
     return;
   }
   // Block k of F is F_k^T, so C = F_k is its transpose; the target's block is T^T.
-  const bool surface = disc_.kind() == MeshKind::Surface;
   parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
     for (int k = begin; k < end; ++k) {
       if (dim_ == 2) {
@@ -199,13 +201,7 @@ void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) con
         continue;
       }
       const Eigen::Index row = static_cast<Eigen::Index>(k) * 3;
-      const Eigen::Matrix3d C = F.block<3, 3>(row, 0).transpose();
-      if (surface) {
-        const Eigen::Vector3d n = disc_.normals().row(k).transpose();
-        t.block<3, 3>(row, 0) = energy_.fit(C, 1.0, &n).transpose();
-      } else {
-        t.block<3, 3>(row, 0) = energy_.fit(C, 1.0, nullptr).transpose();
-      }
+      t.block<3, 3>(row, 0) = fit3(F.block<3, 3>(row, 0).transpose(), 1.0, k).transpose();
     }
   });
 }

@@ -89,6 +89,9 @@ class ResidualModel {
   double energyScale() const;
 
  private:
+  // EnergyModel::fit for element k in 3D, with its rest normal on surfaces.
+  Eigen::Matrix3d fit3(const Eigen::Matrix3d& C, double weight, int k) const;
+
   const Discretization& disc_;
   const EnergyModel& energy_;
   bool coupled_, iterative_;
