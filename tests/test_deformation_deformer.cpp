@@ -182,7 +182,8 @@ TEST_CASE("the gradient from the residuals, C (F - t), is A x - C t on the free 
         Eigen::MatrixXd X = disc->rest();
         for (Eigen::Index v = 0; v < X.rows(); ++v)
           X.row(v) += 0.1 * Eigen::RowVectorXd::LinSpaced(X.cols(), std::sin(v), std::cos(3 * v));
-        Eigen::MatrixXd t, F, b;
+        Stacked t, F;
+        Eigen::MatrixXd b;
         model.targets(X, t);
         t *= 0.9;
         model.gradients(X, F);

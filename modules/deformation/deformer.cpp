@@ -109,15 +109,16 @@ Eigen::MatrixXd DeformationCore::restSolve() {
   // first, so that its peak memory does not add to the targets' and the right-hand side's.
   system_.factorize();
   if (restRhs_.size() == 0) {
-    Eigen::MatrixXd restTargets;
+    Stacked restTargets;
     model_.targets(disc_.rest(), restTargets);
     system_.rightHandSide(restTargets, restRhs_);
   }
   return system_.solveRightHandSide(restRhs_, targets_);
 }
 
-double DeformationCore::local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t) {
-  const double E = localStep(model_, system_.regularizer(), options_.localStep, X, t, F_);
+double DeformationCore::local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t) {
+  const double E =
+      localStep(model_, system_.regularizer(), options_.localStep, X, previous, t, scratch_);
   if (!std::isfinite(E))
     throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
   return E;
@@ -130,17 +131,17 @@ void DeformationCore::report(const DeformationResult& result) const {
 
 double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X,
                                  DeformationResult& result) {
-  t_.resize(0, 0);  // the first local step fits every target to its own element first
+  // The first local step fits every target to its own element first (no previous targets).
   if (initial) {
     // The given shape's targets, then one global step: it puts the handles at their targets,
     // so that every later iterate has the fixed values the descent keeps.
     result.initialGuess = "given";
-    result.energies.push_back(local(*initial, t_));
+    result.energies.push_back(local(*initial, nullptr, t_));
     X = system_.solve(t_, targets_);
     result.iterations = 1;
   } else if (initSystem_ && initSystem_->singularity().empty()) {
     if (initRhs_.size() == 0) {
-      Eigen::MatrixXd t0;
+      Stacked t0;
       initModel_->targets(disc_.rest(), t0);  // constant: ASAP is linear in 2D
       initSystem_->rightHandSide(t0, initRhs_);
     }
@@ -151,7 +152,7 @@ double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X
     X = restSolve();
     result.iterations = 1;
   }
-  const double E = local(X, t_);
+  const double E = local(X, initial ? &t_ : nullptr, t_);
   result.energies.push_back(E);
   if (result.iterations > 0) report(result);
   return E;
@@ -162,7 +163,7 @@ void DeformationCore::iterateReference(int maxIterations, double tolerance, Eige
   while (result.iterations < maxIterations) {
     X = system_.solve(t_, targets_);
     const double previous = E;
-    E = local(X, t_);
+    E = local(X, nullptr, t_);  // the reference step reads no previous targets
     result.energies.push_back(E);
     ++result.iterations;
     result.criterion = std::abs(previous - E) / previous;
@@ -178,20 +179,20 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
                                  double E, DeformationResult& result) {
   AndersonMixer& mixer = anderson_;
   const bool accelerate = options_.acceleration == Acceleration::Anderson;
-  Eigen::MatrixXd plainT, mixed, mixedT;
+  Stacked& plainT = trialT_;
+  Stacked mixedT;
+  Eigen::MatrixXd mixed;
   while (result.iterations < maxIterations) {
     // The plain step: the global step for the current targets, then the local step. Both are
     // exact minimizers, so its energy is at most E; how much lower is the criterion.
     Eigen::MatrixXd plain;
-    plainT = t_;
     const double plainEnergy = plainStep(plain, plainT);
     result.criterion = E > 0.0 ? std::max(0.0, (E - plainEnergy) / E) : 0.0;
     // The Anderson step, taken only when it ends lower than E (the safeguard).
     bool takeMixed = false;
     double mixedEnergy = plainEnergy;
     if (accelerate && mixer.mix(X, plain, mixed)) {
-      mixedT = t_;
-      mixedEnergy = local(mixed, mixedT);
+      mixedEnergy = local(mixed, &t_, mixedT);
       takeMixed = mixedEnergy < E;
     }
     if (takeMixed) {
@@ -208,8 +209,8 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
   }
 }
 
-void DeformationCore::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next,
-                                 Eigen::MatrixXd& nextT, double energy,
+void DeformationCore::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Stacked& nextT,
+                                 double energy,
                                  double& E, DeformationResult& result) {
   X.swap(next);
   t_.swap(nextT);
@@ -218,18 +219,17 @@ void DeformationCore::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next,
   ++result.iterations;
 }
 
-double DeformationCore::plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t) {
-  X = system_.solve(t, targets_);
-  return local(X, t);
+double DeformationCore::plainStep(Eigen::MatrixXd& X, Stacked& t) {
+  X = system_.solve(t_, targets_);
+  return local(X, &t_, t);
 }
 
-Eigen::MatrixXd DeformationCore::gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t,
+Eigen::MatrixXd DeformationCore::gradient(const Eigen::MatrixXd& X, const Stacked& t,
                                           bool afterLocal) {
-  // Right after the local step at X its F_ is at hand (the sweeps release it; then, and
-  // otherwise, F is computed again).
-  if (!afterLocal || F_.rows() != t.rows() || F_.cols() != t.cols()) model_.gradients(X, F_);
+  // Right after the local step at X its F is at hand.
+  if (!afterLocal) model_.gradients(X, scratch_.F);
   Eigen::MatrixXd g;
-  system_.residualGradient(F_, t, g);
+  system_.residualGradient(scratch_.F, t, g);
   return g;
 }
 
@@ -240,7 +240,8 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
   LbfgsHistory& history = lbfgs_;
   const double scale = 2.0 * model_.energyScale();  // grad E = scale (A X - C t)
   const auto initial = [this](const Eigen::MatrixXd& q) { return system_.applyInverse(q); };
-  Eigen::MatrixXd g = gradient(X, t_), trial, trialT;
+  Eigen::MatrixXd g = gradient(X, t_), trial;
+  Stacked& trialT = trialT_;
   auto accept = [&](double energy) {
     const double decrease = E > 0.0 ? std::max(0.0, (E - energy) / E) : 0.0;
     Eigen::MatrixXd gNew = gradient(trial, trialT, true);  // accept() follows a local step
@@ -263,20 +264,17 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     bool found = false;
     for (int i = 0; i < kBacktracks && !found; ++i, alpha *= 0.5) {
       trial = X + alpha * d;
-      trialT = t_;
-      energy = local(trial, trialT);
+      energy = local(trial, &t_, trialT);
       found = energy <= E + kArmijo * alpha * slope;
     }
     if (found && history.size() > 0) ++result.accelerated;
     if (!found) {  // the plain step, a descent by construction
       history.reset();
-      trialT = t_;
       energy = plainStep(trial, trialT);
     }
     result.criterion = accept(energy);
     if (result.criterion <= tolerance && result.iterations < maxIterations) {
       // Stationarity is decided by a plain step: what one more local/global iteration gains.
-      trialT = t_;
       result.criterion = accept(plainStep(trial, trialT));
       if (result.criterion <= tolerance) result.converged = true;
     }
@@ -301,7 +299,7 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
   Eigen::MatrixXd X;
   if (!model_.iterative()) {
     X = restSolve();
-    result.energies.push_back(local(X, t_));
+    result.energies.push_back(local(X, nullptr, t_));
     result.iterations = 1;
     report(result);
   } else {

@@ -25,12 +25,20 @@ namespace diffreg {
 /// (1 sweep: 1.7x the iterations; 5: no fewer iterations, more time).
 constexpr int kLocalSweeps = 3;
 
-/// The local step at positions X: updates the targets `t` (read as the previous targets by the
-/// exact step, which needs them for the neighbours) and returns the energy
-/// (ResidualModel::energy). `F` is scratch space for the stacked L_k x_k (left empty after the
-/// exact step's sweeps). Linear energies keep their constant targets.
+/// Arrays the local step fills and reuses from call to call (kept by the caller, so that a
+/// million-element step does not fault in fresh pages each time).
+struct LocalStepScratch {
+  Stacked F;    ///< L_k x_k at the positions of the last step
+  Stacked fit;  ///< the per-element fit, when the step updates its targets in place
+};
+
+/// The local step at positions X: new targets `t` and their energy (ResidualModel::energy).
+/// The exact step starts from the better of the per-element fit and `previous` (the targets of
+/// the last step, null for none; may be &t, then t is updated in place). Leaves scratch.F =
+/// L_k x_k at X. Linear energies keep their constant targets.
 double localStep(const ResidualModel& model, const Regularizer& regularizer, LocalStep step,
-                 const Eigen::MatrixXd& X, Eigen::MatrixXd& t, Eigen::MatrixXd& F);
+                 const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
+                 LocalStepScratch& scratch);
 
 /// Eq. 3 at positions X as a function of the shape alone: its minimum over the targets,
 /// approached by exact local steps from the per-element fit until one gains less than 1e-12

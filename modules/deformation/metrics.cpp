@@ -54,7 +54,7 @@ ElementMaps elementMaps(const Discretization& disc, Energy energy,
                         const Eigen::MatrixXd& positions) {
   checkPositions(disc, positions);
   const ResidualModel model(disc, energy);
-  const Eigen::MatrixXd e = model.residuals(positions);
+  const Stacked e = model.residuals(positions);
   return {model.distortion(e), elementSmoothness(disc, model.facetDifference(e))};
 }
 
@@ -94,7 +94,7 @@ DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd* reference) {
   checkPositions(disc, positions);
   const ResidualModel model(disc, energy);
-  const Eigen::MatrixXd e = model.residuals(positions);
+  const Stacked e = model.residuals(positions);
   const Eigen::VectorXd D = model.distortion(e);
   const Eigen::VectorXd& a = disc.measures();
   DeformationMetrics m;

@@ -36,8 +36,8 @@ double chunkedSum(int n, const Body& body) {
 
 // F_k^T = G_k^T X_k for elements [begin, end) (separable layout, d x d blocks).
 template <int D, int S>
-void gradientRange(const Discretization& disc, const Eigen::MatrixXd& X, Eigen::MatrixXd& F,
-                   int begin, int end) {
+void gradientRange(const Discretization& disc, const Eigen::MatrixXd& X, Stacked& F, int begin,
+                   int end) {
   constexpr int s = S;  // element size: 3 (triangles) or 4 (tets)
   const Eigen::MatrixXi& el = disc.elements();
   const Eigen::MatrixXd& grads = disc.gradients();
@@ -137,7 +137,7 @@ Eigen::MatrixXd ResidualModel::toPositions(const Eigen::MatrixXd& x) const {
   return P;
 }
 
-void ResidualModel::gradients(const Eigen::MatrixXd& X, Eigen::MatrixXd& F) const {
+void ResidualModel::gradients(const Eigen::MatrixXd& X, Stacked& F) const {
   const Eigen::Index rows = static_cast<Eigen::Index>(disc_.numElements()) * rows_;
   if (F.rows() != rows || F.cols() != columns_) F.resize(rows, columns_);
   if (coupled_) {  // vec(F_k) through B_k: the unprojected operators are not kept, so L_k x_k
@@ -184,7 +184,7 @@ Eigen::Matrix3d ResidualModel::fit3(const Eigen::Matrix3d& C, double weight, int
   return energy_.fit(C, weight, &n);
 }
 
-void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) const {
+void ResidualModel::fitTargets(const Stacked& F, Stacked& t) const {
   const Eigen::Index rows = static_cast<Eigen::Index>(disc_.numElements()) * rows_;
   if (t.rows() != rows || t.cols() != columns_) t.resize(rows, columns_);
   if (!iterative_) {
@@ -206,30 +206,29 @@ void ResidualModel::fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) con
   });
 }
 
-void ResidualModel::targets(const Eigen::MatrixXd& X, Eigen::MatrixXd& t) const {
+void ResidualModel::targets(const Eigen::MatrixXd& X, Stacked& t) const {
   if (!iterative_) {
     t = fixedTargets_;
     return;
   }
-  Eigen::MatrixXd F;
+  Stacked F;
   gradients(X, F);
   fitTargets(F, t);
 }
 
-void ResidualModel::residuals(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t,
-                              Eigen::MatrixXd& e) const {
+void ResidualModel::residuals(const Eigen::MatrixXd& X, const Stacked& t, Stacked& e) const {
   gradients(X, e);
   e -= t;
 }
 
-Eigen::MatrixXd ResidualModel::residuals(const Eigen::MatrixXd& X) const {
-  Eigen::MatrixXd t, e;
+Stacked ResidualModel::residuals(const Eigen::MatrixXd& X) const {
+  Stacked t, e;
   targets(X, t);
   residuals(X, t, e);
   return e;
 }
 
-Eigen::VectorXd ResidualModel::distortion(const Eigen::MatrixXd& e) const {
+Eigen::VectorXd ResidualModel::distortion(const Stacked& e) const {
   const int m = disc_.numElements();
   Eigen::VectorXd D(m);
   for (int k = 0; k < m; ++k)
@@ -237,7 +236,7 @@ Eigen::VectorXd ResidualModel::distortion(const Eigen::MatrixXd& e) const {
   return D;
 }
 
-Eigen::VectorXd ResidualModel::facetDifference(const Eigen::MatrixXd& e) const {
+Eigen::VectorXd ResidualModel::facetDifference(const Stacked& e) const {
   const auto& facets = disc_.facets();
   Eigen::VectorXd S(static_cast<Eigen::Index>(facets.size()));
   for (size_t f = 0; f < facets.size(); ++f)
@@ -306,37 +305,21 @@ double blendedEnergy(const Discretization& disc, const RegularizationWeights& w,
 
 }  // namespace
 
-double ResidualModel::energy(const Eigen::MatrixXd& e, const RegularizationWeights& w) const {
-  const int r = rows_;
-  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
-    return e(static_cast<Eigen::Index>(k) * r + a, b);
+double ResidualModel::energy(const Stacked& e, const RegularizationWeights& w) const {
+  const double* data = e.data();
+  const int c = columns_, dd = rows_ * columns_;
+  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [=](int k, int a, int b) {
+    return data[static_cast<size_t>(k) * dd + static_cast<size_t>(a) * c + b];
   });
 }
 
-double ResidualModel::energy(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t,
+double ResidualModel::energy(const Stacked& F, const Stacked& t,
                              const RegularizationWeights& w) const {
-  const int r = rows_;
-  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
-    const Eigen::Index row = static_cast<Eigen::Index>(k) * r + a;
-    return F(row, b) - t(row, b);
-  });
-}
-
-double ResidualModel::blockEnergy(const double* F, const double* t,
-                                  const RegularizationWeights& w) const {
-  const int r = rows_, dd = rows_ * columns_;
-  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
-    const size_t at = static_cast<size_t>(k) * dd + static_cast<size_t>(a) * r + b;
-    return F[at] - t[at];
-  });
-}
-
-double ResidualModel::blockEnergy(const double* F, const Eigen::MatrixXd& t,
-                                  const RegularizationWeights& w) const {
-  const int r = rows_, dd = rows_ * columns_;
-  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [&](int k, int a, int b) {
-    const size_t at = static_cast<size_t>(k) * dd + static_cast<size_t>(a) * r + b;
-    return F[at] - t(static_cast<Eigen::Index>(k) * r + a, b);
+  const double *f = F.data(), *target = t.data();
+  const int c = columns_, dd = rows_ * columns_;
+  return blendedEnergy(disc_, w, rows_, columns_, energyScale(), [=](int k, int a, int b) {
+    const size_t at = static_cast<size_t>(k) * dd + static_cast<size_t>(a) * c + b;
+    return f[at] - target[at];
   });
 }
 

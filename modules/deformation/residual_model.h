@@ -10,6 +10,12 @@
 
 namespace diffreg {
 
+/// Per-element blocks stacked in rows ((m rows()) x columns()): F, the targets t and the
+/// residuals e. Row-major, so each element's block is contiguous (separable layout: the d x d
+/// block F_k^T in d^2 consecutive values; coupled: one column, the same either way); the local
+/// step's sweeps read an element and its neighbours a few cache lines each, in place.
+using Stacked = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 class ResidualModel {
  public:
   /// Precomputes L_k for every element (O(m) small dense blocks) and, for the linear energies,
@@ -51,7 +57,7 @@ class ResidualModel {
 
   /// Stacked L_k x_k for positions n x d, in the layout of the targets ((m rows()) x
   /// columns(); separable: the blocks F_k^T). `F` is resized only when its shape is wrong.
-  void gradients(const Eigen::MatrixXd& positions, Eigen::MatrixXd& F) const;
+  void gradients(const Eigen::MatrixXd& positions, Stacked& F) const;
   /// Element k's target for its block C^T (d x d, separable layout, row-major) and total
   /// weight (EnergyModel::fit), written row-major into `Tt` (d x d: block k of the stacked
   /// targets). Iterative energies only.
@@ -59,31 +65,24 @@ class ResidualModel {
   /// Every element's target fitted to its own F_k alone (weight 1, in parallel): the local step
   /// of plain local/global and of `local_step=reference`; the constant targets of the linear
   /// energies. `t` is resized only when its shape is wrong.
-  void fitTargets(const Eigen::MatrixXd& F, Eigen::MatrixXd& t) const;
+  void fitTargets(const Stacked& F, Stacked& t) const;
   /// gradients() and fitTargets() for positions.
-  void targets(const Eigen::MatrixXd& positions, Eigen::MatrixXd& t) const;
+  void targets(const Eigen::MatrixXd& positions, Stacked& t) const;
   /// Stacked residuals e_k = L_k x_k - t_k for positions and their targets.
-  void residuals(const Eigen::MatrixXd& positions, const Eigen::MatrixXd& t,
-                 Eigen::MatrixXd& e) const;
+  void residuals(const Eigen::MatrixXd& positions, const Stacked& t, Stacked& e) const;
   /// Residuals at `positions` with the targets fitted to each F_k alone.
-  Eigen::MatrixXd residuals(const Eigen::MatrixXd& positions) const;
+  Stacked residuals(const Eigen::MatrixXd& positions) const;
 
   /// D_k = ||e_k||_F^2 per element from stacked residuals.
-  Eigen::VectorXd distortion(const Eigen::MatrixXd& e) const;
+  Eigen::VectorXd distortion(const Stacked& e) const;
   /// ||e_k - e_l||_F^2 per facet from stacked residuals.
-  Eigen::VectorXd facetDifference(const Eigen::MatrixXd& e) const;
+  Eigen::VectorXd facetDifference(const Stacked& e) const;
   /// Total regularized energy E = sum (1-beta_k) a'_k D_k + sum beta_kl c'_kl ||e_k - e_l||^2
   /// with a', c' measured on the rest mesh scaled to unit mean edge length, so E does not
   /// change when the mesh and its motion are scaled together.
-  double energy(const Eigen::MatrixXd& e, const RegularizationWeights& weights) const;
+  double energy(const Stacked& e, const RegularizationWeights& weights) const;
   /// energy(F - t, weights) without forming the residuals.
-  double energy(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t,
-                const RegularizationWeights& weights) const;
-  /// energy(F, t) for F and t held as m rows of row-major d x d blocks (separable layout).
-  double blockEnergy(const double* F, const double* t, const RegularizationWeights& weights) const;
-  /// The same with t stacked as usual.
-  double blockEnergy(const double* F, const Eigen::MatrixXd& t,
-                     const RegularizationWeights& weights) const;
+  double energy(const Stacked& F, const Stacked& t, const RegularizationWeights& weights) const;
   /// The factor ell^-md of that rescaling: E = energyScale() x (the sum with physical a_k and
   /// ell c_kl), the scale of the system matrix A in the energy (E = energyScale() |J x - t|^2).
   double energyScale() const;
@@ -97,7 +96,7 @@ class ResidualModel {
   bool coupled_, iterative_;
   int dim_, elementSize_, dofsPerVertex_, columns_, rows_, localSize_;
   Eigen::MatrixXd operators_;     // stacked L_k, coupled layout only
-  Eigen::MatrixXd fixedTargets_;  // constant targets of the linear energies
+  Stacked fixedTargets_;          // constant targets of the linear energies
 };
 
 }  // namespace diffreg

@@ -52,19 +52,19 @@ class DeformationCore {
   void descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                     DeformationResult& result);
   // Makes (next, nextT) with its energy the current iterate (X, t_, E) and counts it.
-  void advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Eigen::MatrixXd& nextT, double energy,
+  void advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Stacked& nextT, double energy,
                double& E, DeformationResult& result);
-  // The plain step from targets t: the global step into X, then the local step updating t.
-  // Returns its energy (at most the energy of the shape t was fitted to).
-  double plainStep(Eigen::MatrixXd& X, Eigen::MatrixXd& t);
+  // The plain step from the current targets t_: the global step into X, then the local step
+  // into t. Returns its energy (at most the energy of the current iterate).
+  double plainStep(Eigen::MatrixXd& X, Stacked& t);
   // The energy gradient's direction A X - C t on the free unknowns (0 on the fixed ones).
-  // `afterLocal`: the last local step was at X, so its F_ may serve.
-  Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& t,
-                           bool afterLocal = false);
+  // `afterLocal`: the last local step was at X, so its F (scratch_.F) serves.
+  Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Stacked& t, bool afterLocal = false);
   void iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                         DeformationResult& result);
   Eigen::MatrixXd restSolve();
-  double local(const Eigen::MatrixXd& X, Eigen::MatrixXd& t);
+  // The local step at X into t from `previous` (localStep).
+  double local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t);
   void report(const DeformationResult& result) const;
   const Discretization& disc_;
   DeformationOptions options_;
@@ -75,8 +75,9 @@ class DeformationCore {
   std::unique_ptr<RegularizedSystem> initSystem_;
   std::vector<int> handles_;
   Eigen::MatrixXd targets_;
-  Eigen::MatrixXd t_;            // targets, reused across iterations
-  Eigen::MatrixXd F_;            // stacked L_k x_k of the local step, scratch
+  Stacked t_;                // targets, reused across iterations
+  Stacked trialT_;           // the targets of a trial step (line search, plain step)
+  LocalStepScratch scratch_;  // the local step's F and per-element fit
   // Where the last iterative run stopped, for resume(): its shape and energy (with t_) and the
   // acceleration's memory.
   Eigen::MatrixXd lastX_;

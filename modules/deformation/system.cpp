@@ -20,9 +20,8 @@ constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2,
 // C columns and U local unknowns per element: known at compile time for the separable layouts
 // (> 0), else `r`, `c`, `u` at run time.
 template <int R, int C, int U, bool Residual>
-void sharesOf(const ResidualModel::Operators& L, const Eigen::MatrixXd& t,
-              const Eigen::MatrixXd* F, const Regularizer& reg, int r_, int c_, int u_,
-              int begin, int end, double* out) {
+void sharesOf(const ResidualModel::Operators& L, const Stacked& t, const Stacked* F,
+              const Regularizer& reg, int r_, int c_, int u_, int begin, int end, double* out) {
   const int r = R > 0 ? R : r_, c = C > 0 ? C : c_, u = U > 0 ? U : u_;
   const Eigen::VectorXd& wk = reg.elementWeight();
   const bool coupled = reg.coupling();
@@ -57,9 +56,8 @@ void sharesOf(const ResidualModel::Operators& L, const Eigen::MatrixXd& t,
 }
 
 template <int R, int C, int U>
-void sharesOf(const ResidualModel::Operators& L, const Eigen::MatrixXd& t,
-              const Eigen::MatrixXd* F, const Regularizer& reg, int r, int c, int u, int begin,
-              int end, double* out) {
+void sharesOf(const ResidualModel::Operators& L, const Stacked& t, const Stacked* F,
+              const Regularizer& reg, int r, int c, int u, int begin, int end, double* out) {
   if (F)
     sharesOf<R, C, U, true>(L, t, F, reg, r, c, u, begin, end, out);
   else
@@ -207,18 +205,16 @@ void RegularizedSystem::assemble() {
   }
 }
 
-void RegularizedSystem::rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd& b) const {
+void RegularizedSystem::rightHandSide(const Stacked& t, Eigen::MatrixXd& b) const {
   applyC(t, nullptr, b);
 }
 
-void RegularizedSystem::residualGradient(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t,
-                                         Eigen::MatrixXd& g) {
+void RegularizedSystem::residualGradient(const Stacked& F, const Stacked& t, Eigen::MatrixXd& g) {
   applyC(t, &F, g);
   zeroFixed(g);
 }
 
-void RegularizedSystem::applyC(const Eigen::MatrixXd& t, const Eigen::MatrixXd* F,
-                               Eigen::MatrixXd& b) const {
+void RegularizedSystem::applyC(const Stacked& t, const Stacked* F, Eigen::MatrixXd& b) const {
   const int m = model_.discretization().numElements(), r = model_.rows(), c = model_.columns();
   const int u = model_.localSize(), N = model_.numUnknowns();
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
@@ -321,8 +317,7 @@ std::string RegularizedSystem::singularity() const {
   return {};
 }
 
-Eigen::MatrixXd RegularizedSystem::solve(const Eigen::MatrixXd& t,
-                                         const Eigen::MatrixXd& handlePositions) {
+Eigen::MatrixXd RegularizedSystem::solve(const Stacked& t, const Eigen::MatrixXd& handlePositions) {
   rightHandSide(t, b_);
   return solveRightHandSide(b_, handlePositions);
 }

@@ -54,7 +54,7 @@ class RegularizedSystem {
   /// Factorizes if needed and solves for the positions (n x d) given stacked targets t and the
   /// handle positions (one row per setHandles() vertex, d columns).
   /// \throw SingularSystem (see singularity()) or when the factorization or solution fails.
-  Eigen::MatrixXd solve(const Eigen::MatrixXd& t, const Eigen::MatrixXd& handlePositions);
+  Eigen::MatrixXd solve(const Stacked& t, const Eigen::MatrixXd& handlePositions);
   /// Same as solve() for a right-hand side b = C t already computed by rightHandSide() (e.g.
   /// kept for targets that do not change between solves).
   Eigen::MatrixXd solveRightHandSide(const Eigen::MatrixXd& b,
@@ -75,11 +75,11 @@ class RegularizedSystem {
   /// The full system matrix A (numUnknowns() square), assembled for the current weights.
   const SparseMatrix& matrix() const { return A_; }
   /// The right-hand side C t (numUnknowns() x model().columns()) for stacked targets t.
-  void rightHandSide(const Eigen::MatrixXd& t, Eigen::MatrixXd& b) const;
+  void rightHandSide(const Stacked& t, Eigen::MatrixXd& b) const;
   /// The energy gradient's direction A x - C t = C (F - t) for F the stacked L_k x_k of the
   /// same x (ResidualModel::gradients), on the free unknowns (0 on the fixed ones): one pass
   /// over the elements instead of a product with A and a right-hand side. Factorizes if needed.
-  void residualGradient(const Eigen::MatrixXd& F, const Eigen::MatrixXd& t, Eigen::MatrixXd& g);
+  void residualGradient(const Stacked& F, const Stacked& t, Eigen::MatrixXd& g);
   const SolverStats& stats() const { return solver_.stats(); }
   const ResidualModel& model() const { return model_; }
 
@@ -88,7 +88,7 @@ class RegularizedSystem {
   void buildPattern(bool couplings);
   void assemble();
   // b = C t, or C (F - t) when F is given.
-  void applyC(const Eigen::MatrixXd& t, const Eigen::MatrixXd* F, Eigen::MatrixXd& b) const;
+  void applyC(const Stacked& t, const Stacked* F, Eigen::MatrixXd& b) const;
   // Checks solvability, analyzes and factorizes what changed.
   void prepare();
 

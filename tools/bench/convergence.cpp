@@ -190,7 +190,7 @@ void addCgalCase(std::vector<Case>& cases, const std::string& label, const std::
     Trace t;
     traceCgalArap(s.mesh.positions(), s.mesh.elements(), s.handles, s.targets, cap,
                   [&](int, const Eigen::MatrixXd& X, double seconds) {
-                    Eigen::MatrixXd tt, e;
+                    Stacked tt, e;
                     model.targets(X, tt);
                     model.residuals(X, tt, e);
                     t.energy.push_back(model.energy(e, none));
