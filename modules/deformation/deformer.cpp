@@ -237,6 +237,7 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
                                       double E, DeformationResult& result) {
   constexpr double kArmijo = 1e-4;
   constexpr int kBacktracks = 6;
+  if (result.iterations >= maxIterations) return;  // e.g. one iteration: the first global step
   LbfgsHistory& history = lbfgs_;
   const double scale = 2.0 * model_.energyScale();  // grad E = scale (A X - C t)
   const auto initial = [this](const Eigen::MatrixXd& q) { return system_.applyInverse(q); };
