@@ -39,6 +39,7 @@ void DeformationCore::setHandles(const std::vector<int>& vertices) {
   }
   handles_ = vertices;
   resumable_ = false;
+  basis_.reset();
   targets_.resize(static_cast<Eigen::Index>(vertices.size()), disc_.dim());
   for (size_t i = 0; i < vertices.size(); ++i)
     targets_.row(static_cast<Eigen::Index>(i)) = disc_.rest().row(vertices[i]);
@@ -68,6 +69,7 @@ void DeformationCore::setRegularization(Regularization mode, double beta,
   system_.setWeights(w);
   resumable_ = false;
   restRhs_.resize(0, 0);  // C depends on the weights
+  basis_.reset();
   initRhs_.resize(0, 0);
   if (initSystem_) initSystem_->setWeights(w);
 }
@@ -76,6 +78,11 @@ void DeformationCore::setBeta(double beta) { setRegularization(Regularization::U
 
 void DeformationCore::setWeights(const Eigen::VectorXd& weights) {
   setRegularization(Regularization::Nonuniform, 0.0, weights);
+}
+
+void DeformationCore::setHandleBasis(bool on) {
+  options_.handleBasis = on;
+  if (!on) basis_.reset();
 }
 
 SolverStats DeformationCore::stats() const {
@@ -112,6 +119,14 @@ Eigen::MatrixXd DeformationCore::restSolve() {
     Stacked restTargets;
     model_.targets(disc_.rest(), restTargets);
     system_.rightHandSide(restTargets, restRhs_);
+  }
+  if (options_.handleBasis && !model_.coupled()) {
+    if (!basis_) basis_ = std::make_unique<HandleBasis>(disc_, handles_);
+    if (basis_->usable()) {
+      if (!basis_->built()) basis_->build(system_, restRhs_);
+      Eigen::MatrixXd X;
+      if (basis_->solve(targets_, X)) return X;
+    }
   }
   return system_.solveRightHandSide(restRhs_, targets_);
 }
@@ -359,6 +374,7 @@ void DeformationSession::setRegularization(Regularization mode, double beta,
   core_->setRegularization(mode, beta, weights);
 }
 void DeformationSession::setBeta(double beta) { core_->setBeta(beta); }
+void DeformationSession::setHandleBasis(bool on) { core_->setHandleBasis(on); }
 void DeformationSession::setWeights(const Eigen::VectorXd& weights) { core_->setWeights(weights); }
 DeformationResult DeformationSession::solve(int maxIterations, double relTolerance) {
   return core_->solve(maxIterations, relTolerance);

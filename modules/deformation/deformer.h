@@ -3,6 +3,8 @@
 //   setHandles                          -> symbolic analysis + numeric factorization next solve
 //   setBeta / setWeights / setRegularization -> numeric factorization only
 //   setTargets                          -> right-hand side only
+//   (with setHandleBasis on, a move whose handle groups each move affinely: no solve for the
+//    first global step)
 #pragma once
 
 #include <diffreg/deformation/options.h>
@@ -39,6 +41,10 @@ class DeformationSession {
   void setBeta(double beta);
   /// Non-uniform regularization with these per-vertex weights.
   void setWeights(const Eigen::VectorXd& weights);
+  /// DeformationOptions::handleBasis: on, the next solve also computes the first global step's
+  /// response to affine motions of each group of handle vertices (again after new handles or
+  /// weights), and later moves use it.
+  void setHandleBasis(bool on);
 
   /// Minimizes the regularized energy with the handles at their targets.
   /// \throw InvalidParameter before any setHandles() or for maxIterations < 1 or a negative

@@ -5,6 +5,7 @@
 
 #include <diffreg/deformation/anderson.h>
 #include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/handle_basis.h>
 #include <diffreg/deformation/lbfgs.h>
 #include <diffreg/deformation/local_step.h>
 #include <diffreg/deformation/options.h>
@@ -28,6 +29,7 @@ class DeformationCore {
   void setRegularization(Regularization mode, double beta, const Eigen::VectorXd& weights = {});
   void setBeta(double beta);
   void setWeights(const Eigen::VectorXd& weights);
+  void setHandleBasis(bool on);
 
   DeformationResult solve(int maxIterations, double relTolerance);
   DeformationResult solve() { return solve(options_.maxIterations, options_.relTolerance); }
@@ -85,6 +87,7 @@ class DeformationCore {
   bool resumable_ = false;
   LbfgsHistory lbfgs_{1};
   AndersonMixer anderson_{1};
+  std::unique_ptr<HandleBasis> basis_;  // options_.handleBasis: for these handles and weights
   Eigen::MatrixXd restRhs_;  // C t for the rest shape's targets and the current weights
                              // (empty: not yet)
   Eigen::MatrixXd initRhs_;      // the same for the ASAP initial guess's system

@@ -364,6 +364,24 @@ void RegularizedSystem::zeroFixed(Eigen::MatrixXd& x) {
   for (int id : solver_.partition().fixedIds()) x.row(id).setZero();
 }
 
+Eigen::MatrixXd RegularizedSystem::handleResponse(const Eigen::MatrixXd& v) {
+  if (model_.coupled())
+    throw InvalidParameter("deformation: handle responses need a separable energy layout");
+  if (v.rows() != static_cast<Eigen::Index>(handles_.size()))
+    throw InvalidParameter("deformation: handle values for " + std::to_string(v.rows()) +
+                           " vertices, not " + std::to_string(handles_.size()));
+  prepare();
+  const Partition& part = solver_.partition();
+  std::vector<int> handleOf(static_cast<size_t>(model_.numUnknowns()), -1);
+  for (size_t i = 0; i < handles_.size(); ++i) handleOf[handles_[i]] = static_cast<int>(i);
+  Eigen::MatrixXd xFixed = Eigen::MatrixXd::Zero(part.numFixed(), v.cols());
+  for (int i = 0; i < part.numFixed(); ++i) {
+    const int h = handleOf[part.fixedIds()[i]];
+    if (h >= 0) xFixed.row(i) = v.row(h);
+  }
+  return solver_.solve(Eigen::MatrixXd::Zero(model_.numUnknowns(), v.cols()), xFixed);
+}
+
 Eigen::MatrixXd RegularizedSystem::solveRightHandSide(const Eigen::MatrixXd& b,
                                                       const Eigen::MatrixXd& handlePositions) {
   const Discretization& disc = model_.discretization();

@@ -60,6 +60,12 @@ class RegularizedSystem {
   Eigen::MatrixXd solveRightHandSide(const Eigen::MatrixXd& b,
                                      const Eigen::MatrixXd& handlePositions);
 
+  /// The positions' response to values on the handles alone (separable layouts): x with
+  /// A_FF x_F = -A_FH v on the free unknowns, x = v on the handles and 0 on the vertices
+  /// without elements, for `v` with one row per setHandles() vertex and any number of columns
+  /// (one back-substitution for all of them). Factorizes if needed.
+  /// \throw SingularSystem as solve(); InvalidParameter for a coupled layout or a wrong size.
+  Eigen::MatrixXd handleResponse(const Eigen::MatrixXd& v);
   /// x with A_FF x_F = r_F on the free unknowns and 0 on the fixed ones (handles, vertices
   /// without elements): the inverse of the system matrix on the free subspace, as the initial
   /// Hessian of the quasi-Newton iteration. Factorizes if needed.

@@ -105,6 +105,7 @@ std::unique_ptr<DeformationSession> newSession(const SessionSetup& setup, const 
   options.reserveRegularization =
       regularized && (setup.settings.interactive || mode != Regularization::None);
   options.backend = setup.settings.backend;
+  options.handleBasis = setup.settings.interactive;  // drags start without a solve
   if (setup.progress != nullptr) {
     const std::function<void(int, double, double)>* progress = setup.progress;
     options.progress = [progress](int iteration, double energy, double criterion) {

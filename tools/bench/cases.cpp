@@ -337,6 +337,14 @@ void addDeformationCase(std::vector<Case>& cases, const std::string& series,
       throw Error("deformation: the session did not reuse its factorization");
     const double iteration = (latencyLong - latency1) / (kLongMove - 1);
     const double global = s3.solveSeconds / kLongMove;
+    // The editor's setting: the handle basis, built by the next solve, then a move whose
+    // handle groups move affinely (here: translated) starts without a solve.
+    session.setHandleBasis(true);
+    const double basisMove = handleMove(session, s, 0.05, 1);
+    const SolverStats s4 = session.stats() - s1 - s2 - s3;
+    const double latencyBasis = handleMove(session, s, 0.10, 1);
+    const SolverStats s5 = session.stats() - s1 - s2 - s3 - s4;
+    if (s5.solves != 0) throw Error("deformation: the handle basis did not serve the move");
     return Sample{{"setup", setup},
                   {"symbolic", s1.symbolicSeconds},
                   {"factor", s1.numericSeconds},
@@ -344,7 +352,9 @@ void addDeformationCase(std::vector<Case>& cases, const std::string& series,
                   {"global", global},
                   {"local", iteration - global},
                   {"move1", latency1},
-                  {"move5", latencyLong}};
+                  {"move5", latencyLong},
+                  {"basis_move1", basisMove},
+                  {"move1_basis", latencyBasis}};
   };
   cases.push_back(std::move(c));
 }

@@ -1,0 +1,94 @@
+#include <diffreg/deformation/handle_basis.h>
+
+#include <Eigen/Dense>
+#include <numeric>
+
+namespace diffreg {
+
+namespace {
+
+int findRoot(std::vector<int>& parent, int i) {
+  while (parent[static_cast<size_t>(i)] != i) {
+    parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
+    i = parent[static_cast<size_t>(i)];
+  }
+  return i;
+}
+
+}  // namespace
+
+HandleBasis::HandleBasis(const Discretization& disc, const std::vector<int>& handles)
+    : disc_(disc), handles_(handles) {
+  // Union-find over the handle rows, joined by the elements' edges.
+  std::vector<int> rowOf(static_cast<size_t>(disc.numVertices()), -1);
+  for (size_t i = 0; i < handles.size(); ++i) rowOf[static_cast<size_t>(handles[i])] = static_cast<int>(i);
+  std::vector<int> parent(handles.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  const Eigen::MatrixXi& el = disc.elements();
+  for (Eigen::Index k = 0; k < el.rows(); ++k)
+    for (Eigen::Index a = 0; a < el.cols(); ++a)
+      for (Eigen::Index b = a + 1; b < el.cols(); ++b) {
+        const int i = rowOf[static_cast<size_t>(el(k, a))], j = rowOf[static_cast<size_t>(el(k, b))];
+        if (i < 0 || j < 0) continue;
+        const int ri = findRoot(parent, i), rj = findRoot(parent, j);
+        if (ri != rj) parent[static_cast<size_t>(std::max(ri, rj))] = std::min(ri, rj);
+      }
+  std::vector<int> groupOfRoot(handles.size(), -1);
+  group_.resize(handles.size());
+  for (size_t i = 0; i < handles.size(); ++i) {
+    const int r = findRoot(parent, static_cast<int>(i));
+    if (groupOfRoot[static_cast<size_t>(r)] < 0) {
+      groupOfRoot[static_cast<size_t>(r)] = groups_++;
+      members_.emplace_back();
+    }
+    group_[i] = groupOfRoot[static_cast<size_t>(r)];
+    members_[static_cast<size_t>(group_[i])].push_back(static_cast<int>(i));
+  }
+}
+
+bool HandleBasis::usable() const {
+  return groups_ > 0 && (disc_.dim() + 1) * groups_ <= kMaxColumns;
+}
+
+void HandleBasis::build(RegularizedSystem& system, const Eigen::MatrixXd& restRhs) {
+  const int d = disc_.dim(), c = d + 1;
+  const Eigen::Index h = static_cast<Eigen::Index>(handles_.size());
+  x0_ = system.solveRightHandSide(restRhs, Eigen::MatrixXd::Zero(h, d));
+  // Column g (d+1) + a: coordinate a of the group's rest points (a = d: 1), 0 off the group.
+  Eigen::MatrixXd values = Eigen::MatrixXd::Zero(h, static_cast<Eigen::Index>(c) * groups_);
+  for (Eigen::Index i = 0; i < h; ++i) {
+    const Eigen::Index col = static_cast<Eigen::Index>(group_[static_cast<size_t>(i)]) * c;
+    values.block(i, col, 1, d) = disc_.rest().row(handles_[static_cast<size_t>(i)]);
+    values(i, col + d) = 1.0;
+  }
+  phi_ = system.handleResponse(values);
+  built_ = true;
+}
+
+bool HandleBasis::solve(const Eigen::MatrixXd& targets, Eigen::MatrixXd& X) const {
+  const int d = disc_.dim(), c = d + 1;
+  Eigen::MatrixXd coefficients(static_cast<Eigen::Index>(c) * groups_, d);
+  for (int g = 0; g < groups_; ++g) {
+    const std::vector<int>& rows = members_[static_cast<size_t>(g)];
+    const Eigen::Index k = static_cast<Eigen::Index>(rows.size());
+    Eigen::MatrixXd P(k, c), T(k, d);
+    for (Eigen::Index i = 0; i < k; ++i) {
+      const int row = rows[static_cast<size_t>(i)];
+      P.block(i, 0, 1, d) = disc_.rest().row(handles_[static_cast<size_t>(row)]);
+      P(i, d) = 1.0;
+      T.row(i) = targets.row(row).leftCols(d);
+    }
+    // Least squares (any solution reproduces T when it is affine, even for collinear points).
+    const Eigen::MatrixXd M = P.completeOrthogonalDecomposition().solve(T);
+    const double scale = std::max(T.cwiseAbs().maxCoeff(), P.cwiseAbs().maxCoeff());
+    if (!((P * M - T).cwiseAbs().maxCoeff() <= 1e-12 * scale)) return false;
+    coefficients.block(static_cast<Eigen::Index>(g) * c, 0, c, d) = M;
+  }
+  X = x0_;
+  X.noalias() += phi_ * coefficients;
+  for (size_t i = 0; i < handles_.size(); ++i)
+    X.row(handles_[i]) = targets.row(static_cast<Eigen::Index>(i)).leftCols(d);
+  return true;
+}
+
+}  // namespace diffreg
