@@ -20,10 +20,13 @@
 namespace diffreg {
 
 /// Gauss-Seidel sweeps of one exact local step. The coupling of the targets across facets
-/// makes smooth changes of the rotation field travel one element per sweep; measured on a
-/// 10K-vertex surface (nonuniform weights), 3 sweeps reach a given energy in the least time
-/// (1 sweep: 1.7x the iterations; 5: no fewer iterations, more time).
-constexpr int kLocalSweeps = 3;
+/// makes smooth changes of the rotation field travel one element per sweep, and the less
+/// settled the targets, the more iterations the L-BFGS descent needs. Measured to the default
+/// stop with one end held and the other pulled by 15% of the diagonal (docs/benchmarks.md,
+/// 2026-11-24), 3 / 4 / 6 sweeps: non-uniform rocker arm 1843 / 1108 / 943 iterations
+/// (9.6 / 6.4 / 6.4 s), armadillo 2058 / 1517 / 2665 (92 / 77 / 148 s), tet-monkey 50 / 49 / 43
+/// (3.3 / 3.9 / 4.4 s), crocodile > 5000 / 4526 / 3531; 2 sweeps: rocker arm 2235.
+constexpr int kLocalSweeps = 4;
 
 /// Arrays the local step fills and reuses from call to call (kept by the caller, so that a
 /// million-element step does not fault in fresh pages each time).
