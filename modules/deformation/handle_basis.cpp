@@ -54,14 +54,17 @@ void HandleBasis::build(RegularizedSystem& system, const Eigen::MatrixXd& restRh
   const int d = disc_.dim(), c = d + 1;
   const Eigen::Index h = static_cast<Eigen::Index>(handles_.size());
   x0_ = system.solveRightHandSide(restRhs, Eigen::MatrixXd::Zero(h, d));
-  // Column g (d+1) + a: coordinate a of the group's rest points (a = d: 1), 0 off the group.
-  Eigen::MatrixXd values = Eigen::MatrixXd::Zero(h, static_cast<Eigen::Index>(c) * groups_);
-  for (Eigen::Index i = 0; i < h; ++i) {
-    const Eigen::Index col = static_cast<Eigen::Index>(group_[static_cast<size_t>(i)]) * c;
-    values.block(i, col, 1, d) = disc_.rest().row(handles_[static_cast<size_t>(i)]);
-    values(i, col + d) = 1.0;
+  // Columns g (d+1) + a: coordinate a of group g's rest points (a = d: 1), 0 off the group;
+  // one group at a time, so that the solve's scratch stays that of d+1 columns.
+  phi_.resize(disc_.numVertices(), static_cast<Eigen::Index>(c) * groups_);
+  for (int g = 0; g < groups_; ++g) {
+    Eigen::MatrixXd values = Eigen::MatrixXd::Zero(h, c);
+    for (int i : members_[static_cast<size_t>(g)]) {
+      values.block(i, 0, 1, d) = disc_.rest().row(handles_[static_cast<size_t>(i)]);
+      values(i, d) = 1.0;
+    }
+    phi_.middleCols(static_cast<Eigen::Index>(g) * c, c) = system.handleResponse(values);
   }
-  phi_ = system.handleResponse(values);
   built_ = true;
 }
 

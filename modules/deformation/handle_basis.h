@@ -7,7 +7,7 @@
 //
 // with x_0 the step for all handles at the origin and Phi_g (n x (d+1)) the response to the
 // group's rest coordinates [p 1], computed once with the factorization (one back-substitution
-// of (d+1) x groups columns). A move then costs a small dense product instead of a solve; any
+// of d+1 columns per group). A move then costs a small dense product instead of a solve; any
 // other move is solved as usual. Separable energy layouts only (ARAP, Dirichlet, 3D ASAP).
 #pragma once
 

@@ -138,7 +138,7 @@ struct DeformationOptions {
   /// With each factorization, also the first global step's response to affine motions of each
   /// group of connected handle vertices (HandleBasis, separable energies, at most 6 groups in
   /// 3D or 8 in 2D): a later handle move whose groups each move affinely (drags, rotations)
-  /// starts without a solve. Costs one back-substitution of (d+1) x groups columns per
+  /// starts without a solve. Costs one back-substitution of d+1 columns per group per
   /// factorization and n (d+1) groups doubles. For an editor; a one-shot solve gains nothing.
   bool handleBasis = false;
   /// Called after every iteration with its 1-based count, the energy

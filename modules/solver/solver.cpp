@@ -401,10 +401,16 @@ void EliminatedSolver::setMatrix(const SparseMatrix& A, bool samePattern) {
 }
 
 Eigen::MatrixXd EliminatedSolver::solve(const Eigen::MatrixXd& b, const Eigen::MatrixXd& xFixed) {
-  if (b.rows() != partition_.size() || xFixed.rows() != partition_.numFixed())
+  const bool zero = b.size() == 0;
+  if ((!zero && b.rows() != partition_.size()) || xFixed.rows() != partition_.numFixed())
     throw InvalidParameter("solver: right-hand side or fixed values of the wrong size");
-  Eigen::MatrixXd rhs = partition_.gatherFree(b);
-  if (partition_.numFixed() > 0) rhs -= AFJ_ * xFixed;
+  Eigen::MatrixXd rhs;
+  if (zero) {
+    rhs = Eigen::MatrixXd::Zero(partition_.numFree(), xFixed.cols());
+  } else {
+    rhs = partition_.gatherFree(b);
+  }
+  if (partition_.numFixed() > 0) rhs.noalias() -= AFJ_ * xFixed;
   return partition_.scatter(solver_.solve(rhs), xFixed);
 }
 
