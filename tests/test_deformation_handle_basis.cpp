@@ -104,12 +104,63 @@ TEST_CASE("with the handle basis a session moves as without it, without the firs
           CHECK((fast.stats() - f0).numeric == 0);
         }
       }
-      // New weights: the basis is built again with the refactorization and still agrees.
+      // New weights, then new handles: the basis is built again and serves affine moves.
+      auto agree = [&](const Eigen::MatrixXd& targets) {
+        plain.setTargets(targets);
+        fast.setTargets(targets);
+        const SolverStats p0 = plain.stats(), f0 = fast.stats();
+        const DeformationResult a = plain.solve(1, 0.0);
+        const DeformationResult b = fast.solve(1, 0.0);
+        CHECK(relativeDifference(b.positions, a.positions) < 1e-10);
+        return (plain.stats() - p0).solves - (fast.stats() - f0).solves;
+      };
       const Eigen::VectorXd other = bumpWeights(*disc, handles, 0.4, 0.5);
       plain.setWeights(other);
       fast.setWeights(other);
-      const DeformationResult a = plain.solve(2, 0.0);
-      const DeformationResult b = fast.solve(2, 0.0);
-      CHECK(relativeDifference(b.positions, a.positions) < 1e-10);
+      agree(moves[0]);                                // builds the basis again
+      CHECK(agree(moves[1]) == (separable ? 1 : 0));  // uses it
+      std::vector<int> fewer = endVertices(*disc, 0, 1e-9 * disc->boundingBoxDiagonal());
+      const std::vector<int> far = endVertices(*disc, 1, 1e-9 * disc->boundingBoxDiagonal());
+      fewer.insert(fewer.end(), far.begin(), far.begin() + static_cast<long>(far.size() / 2));
+      plain.setHandles(fewer);
+      fast.setHandles(fewer);
+      agree(turnedTargets(*disc, fewer, 0.4, 0.3));
+      CHECK(agree(turnedTargets(*disc, fewer, -0.3, 0.1)) == (separable ? 1 : 0));
     }
+}
+
+TEST_CASE("the handle basis tells a non-affine move at any scale and distance from the origin",
+          "[deformation][basis]") {
+  for (MeshKind kind : {MeshKind::Surface, MeshKind::Tet})
+    for (double scale : {1e-9, 1.0, 1e6})
+      for (double offset : {0.0, 1e3}) {
+        INFO(toString(kind) << " scale " << scale << " offset " << offset);
+        auto bar = makeBar(kind, scale);
+        Eigen::MatrixXd P = bar->rest();
+        P.array() += offset * scale;
+        const Discretization disc(kind, P, bar->elements());
+        const std::vector<int> handles = bothEnds(disc);
+        DeformationSession plain(disc), fast(disc);
+        fast.setHandleBasis(true);
+        for (DeformationSession* s : {&plain, &fast}) {
+          s->setHandles(handles);
+          s->solve(1, 0.0);
+        }
+        const double size = disc.boundingBoxDiagonal();
+        for (double nudge : {0.0, 1e-6, 1e-3}) {
+          INFO("nudge " << nudge);
+          Eigen::MatrixXd T = turnedTargets(disc, handles, 0.3, 0.2 * size);
+          T(0, 1) += nudge * size;
+          plain.setTargets(T);
+          fast.setTargets(T);
+          const SolverStats p0 = plain.stats(), f0 = fast.stats();
+          const DeformationResult a = plain.solve(1, 0.0);
+          const DeformationResult b = fast.solve(1, 0.0);
+          const int saved = (plain.stats() - p0).solves - (fast.stats() - f0).solves;
+          CHECK(saved == (nudge == 0.0 ? 1 : 0));
+          const Eigen::MatrixXd moved = a.positions.rowwise() - P.colwise().mean();
+          CHECK((b.positions - a.positions).cwiseAbs().maxCoeff() <=
+                1e-10 * moved.cwiseAbs().maxCoeff());
+        }
+      }
 }

@@ -1,6 +1,8 @@
 #include <diffreg/deformation/handle_basis.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <limits>
 #include <numeric>
 
 namespace diffreg {
@@ -70,6 +72,8 @@ void HandleBasis::build(RegularizedSystem& system, const Eigen::MatrixXd& restRh
 
 bool HandleBasis::solve(const Eigen::MatrixXd& targets, Eigen::MatrixXd& X) const {
   const int d = disc_.dim(), c = d + 1;
+  if (targets.rows() != static_cast<Eigen::Index>(handles_.size()) || targets.cols() < d)
+    return false;
   Eigen::MatrixXd coefficients(static_cast<Eigen::Index>(c) * groups_, d);
   for (int g = 0; g < groups_; ++g) {
     const std::vector<int>& rows = members_[static_cast<size_t>(g)];
@@ -83,8 +87,12 @@ bool HandleBasis::solve(const Eigen::MatrixXd& targets, Eigen::MatrixXd& X) cons
     }
     // Least squares (any solution reproduces T when it is affine, even for collinear points).
     const Eigen::MatrixXd M = P.completeOrthogonalDecomposition().solve(T);
-    const double scale = std::max(T.cwiseAbs().maxCoeff(), P.cwiseAbs().maxCoeff());
-    if (!((P * M - T).cwiseAbs().maxCoeff() <= 1e-12 * scale)) return false;
+    // 1e-12 of the mesh's size, plus the round-off of coordinates this far from the origin.
+    const double magnitude =
+        std::max(T.cwiseAbs().maxCoeff(), P.leftCols(d).cwiseAbs().maxCoeff());
+    const double tolerance = 1e-12 * disc_.boundingBoxDiagonal() +
+                             16.0 * std::numeric_limits<double>::epsilon() * magnitude;
+    if (!((P * M - T).cwiseAbs().maxCoeff() <= tolerance)) return false;
     coefficients.block(static_cast<Eigen::Index>(g) * c, 0, c, d) = M;
   }
   X = x0_;

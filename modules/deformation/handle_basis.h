@@ -35,8 +35,9 @@ class HandleBasis {
   /// responses Phi_g on `system` (handles set as here, separable layout).
   void build(RegularizedSystem& system, const Eigen::MatrixXd& restRhs);
   /// The global step for these handle targets (handles x d) into X when every group moves
-  /// affinely (to 1e-12 of the targets' extent), with the handles exactly at their targets;
-  /// false otherwise (X untouched). \pre built().
+  /// affinely (its least-squares affine map misses no target by more than 1e-12 of the mesh's
+  /// bounding-box diagonal plus the round-off of the coordinates), with the handles exactly at
+  /// their targets; false otherwise (X untouched). \pre built().
   bool solve(const Eigen::MatrixXd& targets, Eigen::MatrixXd& X) const;
 
  private:

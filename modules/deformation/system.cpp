@@ -379,7 +379,7 @@ Eigen::MatrixXd RegularizedSystem::handleResponse(const Eigen::MatrixXd& v) {
     const int h = handleOf[part.fixedIds()[i]];
     if (h >= 0) xFixed.row(i) = v.row(h);
   }
-  return solver_.solve(Eigen::MatrixXd(), xFixed);  // b = 0
+  return solver_.solveFixedResponse(xFixed);
 }
 
 Eigen::MatrixXd RegularizedSystem::solveRightHandSide(const Eigen::MatrixXd& b,

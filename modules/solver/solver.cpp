@@ -401,15 +401,17 @@ void EliminatedSolver::setMatrix(const SparseMatrix& A, bool samePattern) {
 }
 
 Eigen::MatrixXd EliminatedSolver::solve(const Eigen::MatrixXd& b, const Eigen::MatrixXd& xFixed) {
-  const bool zero = b.size() == 0;
-  if ((!zero && b.rows() != partition_.size()) || xFixed.rows() != partition_.numFixed())
+  if (b.rows() != partition_.size() || xFixed.rows() != partition_.numFixed())
     throw InvalidParameter("solver: right-hand side or fixed values of the wrong size");
-  Eigen::MatrixXd rhs;
-  if (zero) {
-    rhs = Eigen::MatrixXd::Zero(partition_.numFree(), xFixed.cols());
-  } else {
-    rhs = partition_.gatherFree(b);
-  }
+  Eigen::MatrixXd rhs = partition_.gatherFree(b);
+  if (partition_.numFixed() > 0) rhs.noalias() -= AFJ_ * xFixed;
+  return partition_.scatter(solver_.solve(rhs), xFixed);
+}
+
+Eigen::MatrixXd EliminatedSolver::solveFixedResponse(const Eigen::MatrixXd& xFixed) {
+  if (xFixed.rows() != partition_.numFixed())
+    throw InvalidParameter("solver: fixed values of the wrong size");
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(partition_.numFree(), xFixed.cols());
   if (partition_.numFixed() > 0) rhs.noalias() -= AFJ_ * xFixed;
   return partition_.scatter(solver_.solve(rhs), xFixed);
 }

@@ -99,9 +99,11 @@ class EliminatedSolver {
   /// The caller will say when A's pattern changes (setMatrix(A, samePattern)): no copy of the
   /// pattern is kept for comparison.
   void trustPatterns();
-  /// Full solution (n rows) for right-hand side b (n rows; empty: zero) and fixed values
-  /// xFixed. \throw SingularSystem when the solution is not finite.
+  /// Full solution (n rows) for right-hand side b (n rows) and fixed values xFixed.
+  /// \throw SingularSystem when the solution is not finite.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& b, const Eigen::MatrixXd& xFixed);
+  /// The same for b = 0: the free unknowns' response to the fixed values alone.
+  Eigen::MatrixXd solveFixedResponse(const Eigen::MatrixXd& xFixed);
   const SolverStats& stats() const { return solver_.stats(); }
   SolverInfo info() const { return solver_.info(); }
 
