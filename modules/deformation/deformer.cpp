@@ -225,8 +225,7 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
 }
 
 void DeformationCore::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Stacked& nextT,
-                                 double energy,
-                                 double& E, DeformationResult& result) {
+                              double energy, double& E, DeformationResult& result) {
   X.swap(next);
   t_.swap(nextT);
   E = energy;

@@ -36,16 +36,29 @@ HandleBasis::HandleBasis(const Discretization& disc, const std::vector<int>& han
         if (ri != rj) parent[static_cast<size_t>(std::max(ri, rj))] = std::min(ri, rj);
       }
   std::vector<int> groupOfRoot(handles.size(), -1);
-  group_.resize(handles.size());
   for (size_t i = 0; i < handles.size(); ++i) {
     const int r = findRoot(parent, static_cast<int>(i));
     if (groupOfRoot[static_cast<size_t>(r)] < 0) {
       groupOfRoot[static_cast<size_t>(r)] = groups_++;
       members_.emplace_back();
     }
-    group_[i] = groupOfRoot[static_cast<size_t>(r)];
-    members_[static_cast<size_t>(group_[i])].push_back(static_cast<int>(i));
+    members_[static_cast<size_t>(groupOfRoot[static_cast<size_t>(r)])].push_back(static_cast<int>(i));
   }
+  // The decomposition of each group's [p 1] for the moves' affine fits.
+  if (!usable()) return;
+  for (int g = 0; g < groups_; ++g) fits_.emplace_back(restCoordinates(g));
+}
+
+Eigen::MatrixXd HandleBasis::restCoordinates(int g) const {
+  const std::vector<int>& rows = members_[static_cast<size_t>(g)];
+  const int d = disc_.dim();
+  Eigen::MatrixXd P(static_cast<Eigen::Index>(rows.size()), d + 1);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const Eigen::Index at = static_cast<Eigen::Index>(i);
+    P.block(at, 0, 1, d) = disc_.rest().row(handles_[static_cast<size_t>(rows[i])]);
+    P(at, d) = 1.0;
+  }
+  return P;
 }
 
 bool HandleBasis::usable() const {
@@ -60,11 +73,10 @@ void HandleBasis::build(RegularizedSystem& system, const Eigen::MatrixXd& restRh
   // one group at a time, so that the solve's scratch stays that of d+1 columns.
   phi_.resize(disc_.numVertices(), static_cast<Eigen::Index>(c) * groups_);
   for (int g = 0; g < groups_; ++g) {
+    const std::vector<int>& rows = members_[static_cast<size_t>(g)];
+    const Eigen::MatrixXd P = restCoordinates(g);
     Eigen::MatrixXd values = Eigen::MatrixXd::Zero(h, c);
-    for (int i : members_[static_cast<size_t>(g)]) {
-      values.block(i, 0, 1, d) = disc_.rest().row(handles_[static_cast<size_t>(i)]);
-      values(i, d) = 1.0;
-    }
+    for (size_t i = 0; i < rows.size(); ++i) values.row(rows[i]) = P.row(static_cast<Eigen::Index>(i));
     phi_.middleCols(static_cast<Eigen::Index>(g) * c, c) = system.handleResponse(values);
   }
   built_ = true;
@@ -77,16 +89,12 @@ bool HandleBasis::solve(const Eigen::MatrixXd& targets, Eigen::MatrixXd& X) cons
   Eigen::MatrixXd coefficients(static_cast<Eigen::Index>(c) * groups_, d);
   for (int g = 0; g < groups_; ++g) {
     const std::vector<int>& rows = members_[static_cast<size_t>(g)];
-    const Eigen::Index k = static_cast<Eigen::Index>(rows.size());
-    Eigen::MatrixXd P(k, c), T(k, d);
-    for (Eigen::Index i = 0; i < k; ++i) {
-      const int row = rows[static_cast<size_t>(i)];
-      P.block(i, 0, 1, d) = disc_.rest().row(handles_[static_cast<size_t>(row)]);
-      P(i, d) = 1.0;
-      T.row(i) = targets.row(row).leftCols(d);
-    }
+    const Eigen::MatrixXd P = restCoordinates(g);
+    Eigen::MatrixXd T(P.rows(), d);
+    for (size_t i = 0; i < rows.size(); ++i)
+      T.row(static_cast<Eigen::Index>(i)) = targets.row(rows[i]).leftCols(d);
     // Least squares (any solution reproduces T when it is affine, even for collinear points).
-    const Eigen::MatrixXd M = P.completeOrthogonalDecomposition().solve(T);
+    const Eigen::MatrixXd M = fits_[static_cast<size_t>(g)].solve(T);
     // 1e-12 of the mesh's size, plus the round-off of coordinates this far from the origin.
     const double magnitude =
         std::max(T.cwiseAbs().maxCoeff(), P.leftCols(d).cwiseAbs().maxCoeff());

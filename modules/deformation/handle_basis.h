@@ -14,6 +14,7 @@
 #include <diffreg/deformation/system.h>
 
 #include <Eigen/Core>
+#include <Eigen/QR>
 #include <vector>
 
 namespace diffreg {
@@ -43,8 +44,12 @@ class HandleBasis {
  private:
   const Discretization& disc_;
   std::vector<int> handles_;
-  std::vector<int> group_;                 // per handle row
+  // Group g's rest points [p 1], one row per member.
+  Eigen::MatrixXd restCoordinates(int g) const;
+
   std::vector<std::vector<int>> members_;  // rows of each group
+  // Per group: the decomposition of restCoordinates(g), for the moves' affine fits.
+  std::vector<Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd>> fits_;
   int groups_ = 0;
   bool built_ = false;
   Eigen::MatrixXd x0_;   // n x d

@@ -371,38 +371,35 @@ Eigen::MatrixXd RegularizedSystem::handleResponse(const Eigen::MatrixXd& v) {
     throw InvalidParameter("deformation: handle values for " + std::to_string(v.rows()) +
                            " vertices, not " + std::to_string(handles_.size()));
   prepare();
-  const Partition& part = solver_.partition();
-  std::vector<int> handleOf(static_cast<size_t>(model_.numUnknowns()), -1);
+  return solver_.solveFixedResponse(fixedValues(v, false));
+}
+
+Eigen::MatrixXd RegularizedSystem::fixedValues(const Eigen::MatrixXd& handleValues,
+                                               bool restOffHandles) const {
+  const Discretization& disc = model_.discretization();
+  const int q = model_.dofsPerVertex();
+  std::vector<int> handleOf(static_cast<size_t>(disc.numVertices()), -1);
   for (size_t i = 0; i < handles_.size(); ++i) handleOf[handles_[i]] = static_cast<int>(i);
-  Eigen::MatrixXd xFixed = Eigen::MatrixXd::Zero(part.numFixed(), v.cols());
+  const Partition& part = solver_.partition();
+  // Coupled layouts: one column, coordinate id % q of the vertex; separable: every column.
+  const Eigen::Index c = q > 1 ? 1 : handleValues.cols();
+  Eigen::MatrixXd xFixed(part.numFixed(), c);
   for (int i = 0; i < part.numFixed(); ++i) {
-    const int h = handleOf[part.fixedIds()[i]];
-    if (h >= 0) xFixed.row(i) = v.row(h);
+    const int id = part.fixedIds()[i], v = id / q;
+    const int h = handleOf[static_cast<size_t>(v)];
+    for (Eigen::Index col = 0; col < c; ++col) {
+      const Eigen::Index a = q > 1 ? id % q : col;
+      xFixed(i, col) = h >= 0 ? handleValues(h, a) : restOffHandles ? disc.rest()(v, a) : 0.0;
+    }
   }
-  return solver_.solveFixedResponse(xFixed);
+  return xFixed;
 }
 
 Eigen::MatrixXd RegularizedSystem::solveRightHandSide(const Eigen::MatrixXd& b,
                                                       const Eigen::MatrixXd& handlePositions) {
-  const Discretization& disc = model_.discretization();
-  const int q = model_.dofsPerVertex();
   prepare();
   // Fixed values: handle positions, rest positions of vertices without elements.
-  std::vector<int> handleOf(static_cast<size_t>(disc.numVertices()), -1);
-  for (size_t i = 0; i < handles_.size(); ++i) handleOf[handles_[i]] = static_cast<int>(i);
-  const Partition& part = solver_.partition();
-  const int c = model_.columns(), d = disc.dim();
-  Eigen::MatrixXd xFixed(part.numFixed(), c);
-  for (int i = 0; i < part.numFixed(); ++i) {
-    const int id = part.fixedIds()[i], v = id / q;
-    const int h = handleOf[v];
-    for (int col = 0; col < c; ++col) {
-      const int a = q > 1 ? id % q : col;
-      xFixed(i, col) = h >= 0 ? handlePositions(h, a) : disc.rest()(v, a);
-    }
-  }
-  (void)d;
-  Eigen::MatrixXd x = solver_.solve(b, xFixed);
+  Eigen::MatrixXd x = solver_.solve(b, fixedValues(handlePositions, true));
   if (!model_.coupled()) return x;  // the unknowns are the positions
   return model_.toPositions(x);
 }

@@ -93,6 +93,9 @@ class RegularizedSystem {
   void buildTopology();
   void buildPattern(bool couplings);
   void assemble();
+  // Values of the fixed unknowns (solver partition order) from one row per handle vertex;
+  // vertices without elements get their rest positions (`restOffHandles`) or 0.
+  Eigen::MatrixXd fixedValues(const Eigen::MatrixXd& handleValues, bool restOffHandles) const;
   // b = C t, or C (F - t) when F is given.
   void applyC(const Stacked& t, const Stacked* F, Eigen::MatrixXd& b) const;
   // Checks solvability, analyzes and factorizes what changed.

@@ -403,15 +403,16 @@ void EliminatedSolver::setMatrix(const SparseMatrix& A, bool samePattern) {
 Eigen::MatrixXd EliminatedSolver::solve(const Eigen::MatrixXd& b, const Eigen::MatrixXd& xFixed) {
   if (b.rows() != partition_.size() || xFixed.rows() != partition_.numFixed())
     throw InvalidParameter("solver: right-hand side or fixed values of the wrong size");
-  Eigen::MatrixXd rhs = partition_.gatherFree(b);
-  if (partition_.numFixed() > 0) rhs.noalias() -= AFJ_ * xFixed;
-  return partition_.scatter(solver_.solve(rhs), xFixed);
+  return solveFree(partition_.gatherFree(b), xFixed);
 }
 
 Eigen::MatrixXd EliminatedSolver::solveFixedResponse(const Eigen::MatrixXd& xFixed) {
   if (xFixed.rows() != partition_.numFixed())
     throw InvalidParameter("solver: fixed values of the wrong size");
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(partition_.numFree(), xFixed.cols());
+  return solveFree(Eigen::MatrixXd::Zero(partition_.numFree(), xFixed.cols()), xFixed);
+}
+
+Eigen::MatrixXd EliminatedSolver::solveFree(Eigen::MatrixXd rhs, const Eigen::MatrixXd& xFixed) {
   if (partition_.numFixed() > 0) rhs.noalias() -= AFJ_ * xFixed;
   return partition_.scatter(solver_.solve(rhs), xFixed);
 }

@@ -108,6 +108,10 @@ class EliminatedSolver {
   SolverInfo info() const { return solver_.info(); }
 
  private:
+  // The free unknowns for rhs = b_F (taken by value: it becomes b_F - A_FJ xFixed), scattered
+  // with the fixed values.
+  Eigen::MatrixXd solveFree(Eigen::MatrixXd rhs, const Eigen::MatrixXd& xFixed);
+
   Partition partition_;
   SpdSolver solver_;
   SparseMatrix AFJ_;
