@@ -43,11 +43,13 @@ Eigen::MatrixXd LbfgsHistory::direction(
     q -= alpha[static_cast<size_t>(i)] * y_[static_cast<size_t>(i)];
   }
   Eigen::MatrixXd r = initial(q);
+  q.resize(0, 0);  // not needed beside r (peak memory of a million-vertex session)
   for (int i = 0; i < m; ++i) {
     const double beta = rho_[static_cast<size_t>(i)] * dot(y_[static_cast<size_t>(i)], r);
     r += (alpha[static_cast<size_t>(i)] - beta) * s_[static_cast<size_t>(i)];
   }
-  return -r;
+  r *= -1.0;
+  return r;
 }
 
 }  // namespace diffreg

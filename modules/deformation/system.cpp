@@ -5,31 +5,37 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <memory>
+#include <cstdint>
 #include <string>
 
 namespace diffreg {
 
 namespace {
 
-constexpr int kGrain = 2048;  // elements or unknowns per parallel chunk
+constexpr int kGrain = 2048;   // elements or unknowns per parallel chunk
+constexpr int kColourGrain = 256;  // a scatter colour's elements per chunk (a tenth to a
+                                   // thirtieth of the elements: small chunks keep both threads busy)
 constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
 
-// The shares L_k^T tau_k of elements [begin, end), written [k][j][col] into `out`, with
-// tau_k = w_k v_k + sum_(facets kl) w_kl (v_k - v_l) for v = t, or v = F - t (Residual). R rows,
-// C columns and U local unknowns per element: known at compile time for the separable layouts
-// (> 0), else `r`, `c`, `u` at run time.
+// Adds the shares L_k^T tau_k of the elements `ids[0..count)` to the rows of b, with
+// tau_k = w_k v_k + sum_(facets kl) w_kl (v_k - v_l) for v = t, or v = F - t (Residual). The
+// elements share no unknown (one scatter colour), so concurrent calls on disjoint ranges of one
+// colour do not race. R rows, C columns and U local unknowns per element: known at compile time
+// for the separable layouts (> 0), else `r`, `c`, `u` at run time.
 template <int R, int C, int U, bool Residual>
-void sharesOf(const ResidualModel::Operators& L, const Stacked& t, const Stacked* F,
-              const Regularizer& reg, int r_, int c_, int u_, int begin, int end, double* out) {
+void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* F,
+                   const Regularizer& reg, int r_, int c_, int u_, const int* ids, int count,
+                   Eigen::MatrixXd& b) {
   const int r = R > 0 ? R : r_, c = C > 0 ? C : c_, u = U > 0 ? U : u_;
+  const ResidualModel::Operators L = model.operators();
   const Eigen::VectorXd& wk = reg.elementWeight();
   const bool coupled = reg.coupling();
   auto value = [&](Eigen::Index row, int col) {
     return Residual ? (*F)(row, col) - t(row, col) : t(row, col);
   };
   double tau[kMaxBlock];  // [col][a]
-  for (int k = begin; k < end; ++k) {
+  for (int i = 0; i < count; ++i) {
+    const int k = ids[i];
     const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
     const double w = wk(k);
     for (int col = 0; col < c; ++col)
@@ -42,26 +48,27 @@ void sharesOf(const ResidualModel::Operators& L, const Stacked& t, const Stacked
           for (int a = 0; a < r; ++a)
             tau[col * r + a] += wg * (value(row + a, col) - value(other + a, col));
       }
-    double* share = out + static_cast<size_t>(k) * u * c;
     for (int j = 0; j < u; ++j) {
       double Lj[kMaxBlock];  // column j of L_k
       for (int a = 0; a < r; ++a) Lj[a] = L(k, a, j);
+      const Eigen::Index p = model.unknown(k, j);
       for (int col = 0; col < c; ++col) {
         double sum = 0.0;
         for (int a = 0; a < r; ++a) sum += Lj[a] * tau[col * r + a];
-        share[j * c + col] = sum;
+        b(p, col) += sum;
       }
     }
   }
 }
 
 template <int R, int C, int U>
-void sharesOf(const ResidualModel::Operators& L, const Stacked& t, const Stacked* F,
-              const Regularizer& reg, int r, int c, int u, int begin, int end, double* out) {
+void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* F,
+                   const Regularizer& reg, int r, int c, int u, const int* ids, int count,
+                   Eigen::MatrixXd& b) {
   if (F)
-    sharesOf<R, C, U, true>(L, t, F, reg, r, c, u, begin, end, out);
+    scatterShares<R, C, U, true>(model, t, F, reg, r, c, u, ids, count, b);
   else
-    sharesOf<R, C, U, false>(L, t, F, reg, r, c, u, begin, end, out);
+    scatterShares<R, C, U, false>(model, t, F, reg, r, c, u, ids, count, b);
 }
 
 }  // namespace
@@ -104,6 +111,42 @@ void RegularizedSystem::buildTopology() {
       const int at = fill[model_.unknown(k, j)]++;
       incidence_[at] = k * u + j;
     }
+  // Scatter colours: greedily, the smallest colour that no element sharing an unknown with k
+  // has yet (about 10 on triangle meshes, 25-35 on tets). The first 64 colours are tracked as a
+  // bit mask per unknown; an element that finds them all taken scans its neighbours' colours.
+  std::vector<int> colour(static_cast<size_t>(m), -1), counts;
+  std::vector<std::uint64_t> used(static_cast<size_t>(N), 0);
+  std::vector<int> stamp;
+  for (int k = 0; k < m; ++k) {
+    std::uint64_t taken = 0;
+    for (int j = 0; j < u; ++j) taken |= used[static_cast<size_t>(model_.unknown(k, j))];
+    int c = 0;
+    if (~taken != 0) {
+      while (taken & (std::uint64_t{1} << c)) ++c;
+    } else {
+      stamp.assign(counts.size() + 1, 0);
+      for (int j = 0; j < u; ++j) {
+        const int p = model_.unknown(k, j);
+        for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
+          const int other = colour[static_cast<size_t>(incidence_[at] / u)];
+          if (other >= 0) stamp[static_cast<size_t>(other)] = 1;
+        }
+      }
+      c = 64;
+      while (stamp[static_cast<size_t>(c)]) ++c;
+    }
+    if (c < 64)
+      for (int j = 0; j < u; ++j)
+        used[static_cast<size_t>(model_.unknown(k, j))] |= std::uint64_t{1} << c;
+    if (c >= static_cast<int>(counts.size())) counts.resize(static_cast<size_t>(c) + 1, 0);
+    colour[static_cast<size_t>(k)] = c;
+    ++counts[static_cast<size_t>(c)];
+  }
+  scatterStart_.assign(counts.size() + 1, 0);
+  for (size_t c = 0; c < counts.size(); ++c) scatterStart_[c + 1] = scatterStart_[c] + counts[c];
+  scatterOrder_.resize(static_cast<size_t>(m));
+  std::vector<int> next(scatterStart_.begin(), scatterStart_.end() - 1);
+  for (int k = 0; k < m; ++k) scatterOrder_[next[colour[static_cast<size_t>(k)]]++] = k;
 }
 
 // Column p of A couples p with every unknown of the elements that touch p and, with the
@@ -215,40 +258,27 @@ void RegularizedSystem::residualGradient(const Stacked& F, const Stacked& t, Eig
 }
 
 void RegularizedSystem::applyC(const Stacked& t, const Stacked* F, Eigen::MatrixXd& b) const {
-  const int m = model_.discretization().numElements(), r = model_.rows(), c = model_.columns();
-  const int u = model_.localSize(), N = model_.numUnknowns();
+  const int r = model_.rows(), c = model_.columns(), u = model_.localSize();
+  const int N = model_.numUnknowns();
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
-  const ResidualModel::Operators L = model_.operators();
-  const size_t block = static_cast<size_t>(u) * c;
-  // Scratch for this call only: not kept beside the local step's arrays (peak memory).
-  const std::unique_ptr<double[]> contribution(new double[static_cast<size_t>(m) * block]);
-  // Per element, in element order, its share L_k^T tau_k of the right-hand side, streaming
-  // through t and the operators ...
-  parallel::forChunks(m, kGrain, [&](int, int begin, int end) {
-    double* out = contribution.get();
-    if (!model_.coupled() && r == 3 && u == 3)
-      sharesOf<3, 3, 3>(L, t, F, regularizer_, r, c, u, begin, end, out);
-    else if (!model_.coupled() && r == 3 && u == 4)
-      sharesOf<3, 3, 4>(L, t, F, regularizer_, r, c, u, begin, end, out);
-    else if (!model_.coupled() && r == 2 && u == 3)
-      sharesOf<2, 2, 3>(L, t, F, regularizer_, r, c, u, begin, end, out);
-    else
-      sharesOf<-1, -1, -1>(L, t, F, regularizer_, r, c, u, begin, end, out);
-  });
-  // ... then gathered per unknown over its (element, local unknown) pairs, one contiguous
-  // share each (gathering L_k^T w_k t_k directly reads four scattered cache lines per pair).
-  parallel::forChunks(N, kGrain, [&](int, int begin, int end) {
-    double acc[kMaxBlock];
-    for (int p = begin; p < end; ++p) {
-      for (int col = 0; col < c; ++col) acc[col] = 0.0;
-      for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
-        // Share (k, j) is at (k u + j) c: the incidence entry itself, scaled.
-        const double* share = contribution.get() + static_cast<size_t>(incidence_[at]) * c;
-        for (int col = 0; col < c; ++col) acc[col] += share[col];
-      }
-      for (int col = 0; col < c; ++col) b(p, col) = acc[col];
-    }
-  });
+  b.setZero();
+  // Colour by colour, each element adds its share L_k^T tau_k straight into b: no array of all
+  // shares (m u c doubles, 137 MiB at a million faces, the 1M session's peak).
+  for (size_t colour = 0; colour + 1 < scatterStart_.size(); ++colour) {
+    const int* ids = scatterOrder_.data() + scatterStart_[colour];
+    const int count = scatterStart_[colour + 1] - scatterStart_[colour];
+    parallel::forChunks(count, kColourGrain, [&](int, int begin, int end) {
+      if (!model_.coupled() && r == 3 && u == 3)
+        scatterShares<3, 3, 3>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
+      else if (!model_.coupled() && r == 3 && u == 4)
+        scatterShares<3, 3, 4>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
+      else if (!model_.coupled() && r == 2 && u == 3)
+        scatterShares<2, 2, 3>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
+      else
+        scatterShares<-1, -1, -1>(model_, t, F, regularizer_, r, c, u, ids + begin,
+                                  end - begin, b);
+    });
+  }
 }
 
 namespace {

@@ -6,7 +6,8 @@
 //     A = J^T W J + (D J)^T Ws (D J),      A x = C t,   C = J^T (W + D^T Ws D).
 //
 // C is never formed: C t = sum_k L_k^T tau_k with tau_k = w_k t_k + sum_(facets kl of k)
-// w_kl (t_k - t_l), gathered per unknown. A is assembled into a sparsity pattern built once per
+// w_kl (t_k - t_l), added into C t colour by colour (no two elements of a scatter colour
+// share an unknown). A is assembled into a sparsity pattern built once per
 // session (the elements' and, unless left out, the facets' couplings), so new weights rewrite
 // values only.
 //
@@ -106,6 +107,8 @@ class RegularizedSystem {
   std::vector<int> handles_;
   // Per unknown p: the (element, local unknown) pairs that touch it, CSR.
   std::vector<int> incidenceStart_, incidence_;  // incidence_: k localSize() + j
+  // The elements by scatter colour (no two of a colour share an unknown), CSR.
+  std::vector<int> scatterStart_, scatterOrder_;
   bool reserveCouplings_ = true, couplings_ = false;
   SparseMatrix A_;
   Eigen::MatrixXd b_;                         // right-hand side, reused
