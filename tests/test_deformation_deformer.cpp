@@ -198,6 +198,50 @@ TEST_CASE("the gradient from the residuals, C (F - t), is A x - C t on the free 
       }
 }
 
+TEST_CASE("C t added colour by colour in parallel equals the serial sum over the elements",
+          "[deformation][system]") {
+  // Meshes of 6-20K elements: every scatter colour spans many parallel chunks, so two elements
+  // of one chunk set sharing an unknown would lose or double a share.
+  std::vector<std::unique_ptr<Discretization>> meshes;
+  meshes.push_back(std::make_unique<Discretization>(makeRectangle(4.0, 1.0, 120, 30)));
+  meshes.push_back(std::make_unique<Discretization>(makeSphere(1.0, 96, 48)));
+  meshes.push_back(std::make_unique<Discretization>(makeTetBox(4.0, 1.0, 1.0, 24, 6, 6)));
+  for (const auto& disc : meshes)
+    for (Energy energy : {Energy::Arap, Energy::Asap}) {
+      INFO(toString(disc->kind()) << " " << toString(energy));
+      const ResidualModel model(*disc, energy);
+      RegularizedSystem system(model);
+      system.setWeights(makeRegularizationWeights(
+          *disc, Regularization::Nonuniform, 0.0,
+          Eigen::VectorXd::LinSpaced(disc->numVertices(), 0.1, 0.9)));
+      Eigen::MatrixXd X = disc->rest();
+      for (Eigen::Index v = 0; v < X.rows(); ++v)
+        X.row(v) += 0.05 * Eigen::RowVectorXd::LinSpaced(X.cols(), std::sin(v), std::cos(3 * v));
+      Stacked t;
+      model.targets(X, t);  // then moved off them (planar ASAP's targets are constant zeros)
+      for (Eigen::Index i = 0; i < t.rows(); ++i)
+        for (Eigen::Index j = 0; j < t.cols(); ++j) t(i, j) += 0.1 * std::sin(7.0 * i + j);
+      Eigen::MatrixXd b;
+      system.rightHandSide(t, b);
+      // The serial reference: tau_k = w_k t_k + sum_l w_kl (t_k - t_l), b += L_k^T tau_k.
+      const Regularizer& reg = system.regularizer();
+      const ResidualModel::Operators L = model.operators();
+      const int r = model.rows(), c = model.columns();
+      Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(model.numUnknowns(), c);
+      for (int k = 0; k < disc->numElements(); ++k) {
+        Eigen::MatrixXd tau = reg.elementWeight()(k) * t.middleRows(k * r, r);
+        for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g)
+          tau += reg.neighbourWeight(g) *
+                 (t.middleRows(k * r, r) - t.middleRows(reg.neighbour(g) * r, r));
+        for (int j = 0; j < model.localSize(); ++j)
+          for (int a = 0; a < r; ++a) expected.row(model.unknown(k, j)) += L(k, a, j) * tau.row(a);
+      }
+      REQUIRE(b.rows() == expected.rows());
+      CHECK(maxAbs(b - expected) <= 1e-12 * maxAbs(expected));
+      CHECK(maxAbs(expected) > 0.0);
+    }
+}
+
 TEST_CASE("the ARAP energy never increases across iterations when beta = 0",
           "[deformation][session]") {
   for (MeshKind kind : kAllKinds) {
