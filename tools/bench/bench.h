@@ -47,6 +47,8 @@ struct Case {
 
 struct Sizes {
   bool quick = false;
+  /// Iteration cap of the plain local/global runs of the convergence cases (0: each mesh's own).
+  int plainCap = 0;
 };
 
 /// Where the shared test meshes are: setSharedMeshDirectory(), else $DIFFREG_SHARED_MESHES, else

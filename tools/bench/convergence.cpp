@@ -127,8 +127,11 @@ std::pair<double, double> reach(const Trace& t, double best, double gap) {
   return {NAN, NAN};
 }
 
+// `cap`: the accelerated run's continuation past its default stop, and the plain run's cap
+// unless `plainCap` > 0.
 void addCase(std::vector<Case>& cases, const std::string& label, const std::string& file,
-             const std::string& reg, int plainCap, const std::string& generated = "") {
+             const std::string& reg, int cap, int plainCap, const std::string& generated = "") {
+  if (plainCap <= 0) plainCap = cap;
   auto state = std::make_shared<Scenario>();
   Case c;
   c.group = "converge";
@@ -136,12 +139,12 @@ void addCase(std::vector<Case>& cases, const std::string& label, const std::stri
   c.maxRepeats = 1;  // long, and the iteration counts do not vary
   c.prepare = [state, file, generated] { return prepareScenario(*state, file, generated); };
   c.release = [state] { *state = Scenario(); };
-  c.run = [state, reg, plainCap] {
+  c.run = [state, reg, cap, plainCap] {
     const Scenario& s = *state;
     const DeformationOptions o = optionsFor(s, reg);
-    // Accelerated to the default tolerance (capped at 3 x plainCap here), then on towards the
+    // Accelerated to the default tolerance (capped at 3 x cap here), then on towards the
     // minimum.
-    const Run accelerated = run(s, o, 3 * plainCap, kDefaultTolerance, plainCap);
+    const Run accelerated = run(s, o, 3 * cap, kDefaultTolerance, cap);
     DeformationOptions plainOptions = o;
     plainOptions.acceleration = Acceleration::None;
     const Run plain = run(s, plainOptions, plainCap, 0.0, 0);
@@ -165,6 +168,7 @@ void addCase(std::vector<Case>& cases, const std::string& label, const std::stri
     sample.emplace_back("default_gap", (atDefault - minimum) / minimum);
     sample.emplace_back("default", accelerated.seconds);
     sample.emplace_back("plain_cap_iterations", plainCap);
+    sample.emplace_back("accelerated_cap_iterations", accelerated.iterations + cap);
     return sample;
   };
   cases.push_back(std::move(c));
@@ -219,21 +223,22 @@ void addCgalCase(std::vector<Case>& cases, const std::string& label, const std::
 void addConvergenceCases(std::vector<Case>& cases, const Sizes& sizes) {
   const std::vector<std::string> regs{"none", "uniform", "nonuniform"};
   if (sizes.quick) {
-    for (const std::string& reg : regs) addCase(cases, "sphere-2.5k", "", reg, 2000, "sphere");
+    for (const std::string& reg : regs)
+      addCase(cases, "sphere-2.5k", "", reg, 2000, sizes.plainCap, "sphere");
     addCgalCase(cases, "sphere-2.5k", "", 1000, "sphere");
     return;
   }
   // Caps: the plain runs stop there, and the accelerated one continues as far past its
   // default stop towards the minimum.
   for (const std::string& reg : regs)
-    addCase(cases, "rocker-arm", "surface-rocker-arm.obj", reg, 1500);
+    addCase(cases, "rocker-arm", "surface-rocker-arm.obj", reg, 1500, sizes.plainCap);
   addCgalCase(cases, "rocker-arm", "surface-rocker-arm.obj", 1500);
   for (const std::string& reg : regs)
-    addCase(cases, "tet-monkey", "tet-monkey.mesh", reg, 1000);
+    addCase(cases, "tet-monkey", "tet-monkey.mesh", reg, 1000, sizes.plainCap);
   for (const std::string& reg : regs)
-    addCase(cases, "crocodile", "planar-crocodile.obj", reg, 1000);
+    addCase(cases, "crocodile", "planar-crocodile.obj", reg, 1000, sizes.plainCap);
   for (const std::string& reg : regs)
-    addCase(cases, "armadillo", "surface-armadillo.obj", reg, 400);
+    addCase(cases, "armadillo", "surface-armadillo.obj", reg, 400, sizes.plainCap);
   addCgalCase(cases, "armadillo", "surface-armadillo.obj", 400);
 }
 
