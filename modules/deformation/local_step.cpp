@@ -2,6 +2,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/parallel.h>
+#include <diffreg/deformation/rotation.h>
 
 #include <algorithm>
 
@@ -10,6 +11,8 @@ namespace diffreg {
 namespace {
 
 constexpr int kGrain = 1024;  // elements per parallel chunk
+constexpr int kWeakSweeps = 16;  // sweeps over the weakly anchored elements per local step
+constexpr int kWeakRound = 8;    // of them between two turns
 
 // One colour of the exact sweep: T_k = fit(C_k, weight) for its elements, in place in t (F and
 // t hold row-major D x D blocks F_k^T and T_k^T).
@@ -43,12 +46,82 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
   });
 }
 
+// Turns each weakly anchored component's targets together by the rotation Q that minimizes the
+// energy (eq. 3) over that turn, T_k -> Q T_k for the component's elements (admissible targets
+// stay admissible: Q R_k P_k for surfaces). Every term that holds one of those targets has the
+// form w ||A - Q B||^2, so Q maximizes tr(Q^T sum w A B^T): the closest rotation to that sum.
+// Q = I is a candidate, so the energy never rises. The sweeps alone settle such a turn about one
+// element per sweep (a 26K-vertex planar mesh pulled by a handle of magnitude 1: 1776 L-BFGS
+// iterations instead of 31, docs/benchmarks.md).
+template <int D>
+void turnWeakComponents(const Regularizer& reg, const Stacked& F, Stacked& t,
+                        std::vector<int>& component) {
+  using Block = Eigen::Matrix<double, D, D, Eigen::RowMajor>;  // stored: F_k^T, T_k^T
+  const std::vector<std::vector<int>>& parts = reg.weakComponents();
+  if (parts.empty()) return;
+  const int m = static_cast<int>(F.rows() / D);
+  component.assign(static_cast<size_t>(m), -1);
+  for (size_t c = 0; c < parts.size(); ++c)
+    for (int k : parts[c]) component[static_cast<size_t>(k)] = static_cast<int>(c);
+  auto stored = [](const Stacked& S, int k) {
+    return Eigen::Map<const Block>(S.data() + static_cast<Eigen::Index>(k) * D * D);
+  };
+  const Eigen::VectorXd& wk = reg.elementWeight();
+  for (size_t c = 0; c < parts.size(); ++c) {
+    // sum w A B^T; with the stored transposes At = A^T, Bt = B^T that is At^T Bt.
+    Eigen::Matrix<double, D, D> M = Eigen::Matrix<double, D, D>::Zero();
+    for (int k : parts[c]) {
+      const Block Fk = stored(F, k), Tk = stored(t, k);
+      M.noalias() += wk(k) * Fk.transpose() * Tk;  // own term: A = F_k, B = T_k
+      for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
+        const double w = reg.neighbourWeight(g);
+        const int l = reg.neighbour(g);
+        if (w == 0.0) continue;
+        if (component[static_cast<size_t>(l)] == static_cast<int>(c)) {
+          if (l < k) continue;  // the facet counted once: A = F_k - F_l, B = T_k - T_l
+          const Block A = Fk - stored(F, l), B = Tk - stored(t, l);
+          M.noalias() += w * A.transpose() * B;
+        } else {  // A = F_k - (F_l - T_l), B = T_k
+          const Block A = Fk - stored(F, l) + stored(t, l);
+          M.noalias() += w * A.transpose() * Tk;
+        }
+      }
+    }
+    Eigen::Matrix<double, D, 1> sigma;
+    const Eigen::Matrix<double, D, D> Q = closestRotation<D>(M, sigma);
+    if (!(sigma.sum() > M.trace())) continue;  // no turn lowers the energy
+    for (int k : parts[c]) {
+      Eigen::Map<Block> Tk(t.data() + static_cast<Eigen::Index>(k) * D * D);
+      Tk = (Tk * Q.transpose()).eval();  // (Q T_k)^T = T_k^T Q^T
+    }
+  }
+}
+
+// The weakly anchored elements settled before the sweeps: turns of their components and sweeps
+// over them alone (kWeakSweeps, or fewer when they are a large part of the mesh: at most about
+// one sweep's work), in rounds of kWeakRound sweeps between turns. Both only lower the energy.
+template <int D>
+void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t,
+                LocalStepScratch& scratch) {
+  const int weak = reg.numWeak();
+  if (weak == 0) return;
+  const int m = static_cast<int>(F.rows() / D);
+  const int total = std::min(kWeakSweeps, std::max(1, m / weak));
+  for (int done = 0;;) {
+    turnWeakComponents<D>(reg, F, t, scratch.component);
+    if (done >= total) return;
+    for (int end = std::min(total, done + kWeakRound); done < end; ++done)
+      for (const std::vector<int>& ids : reg.weakColours()) sweepColour<D>(model, reg, ids, F, t);
+  }
+}
+
 // The exact step's sweeps from the better of the previous targets (if any) and the
 // per-element fit: the sweeps then lower the energy further, so the step never raises it, and
 // the per-element fit brings the rotations along at once where the shape has turned.
 template <int D>
 double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked& F,
-              const Stacked* previous, Stacked& t, Stacked& fit) {
+              const Stacked* previous, Stacked& t, LocalStepScratch& scratch) {
+  Stacked& fit = scratch.fit;
   const RegularizationWeights& w = reg.weights();
   if (!previous) {
     model.fitTargets(F, t);
@@ -59,6 +132,7 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
     model.fitTargets(F, t);
     if (!(model.energy(F, t, w) < model.energy(F, *previous, w))) t = *previous;
   }
+  settleWeak<D>(model, reg, F, t, scratch);
   for (int i = 0; i < kLocalSweeps; ++i)
     for (const std::vector<int>& ids : reg.colours()) sweepColour<D>(model, reg, ids, F, t);
   return model.energy(F, t, w);
@@ -80,8 +154,8 @@ double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep s
   }
   if (previous && (previous->rows() != F.rows() || previous->cols() != F.cols()))
     previous = nullptr;
-  return model.rows() == 3 ? sweeps<3>(model, reg, F, previous, t, scratch.fit)
-                           : sweeps<2>(model, reg, F, previous, t, scratch.fit);
+  return model.rows() == 3 ? sweeps<3>(model, reg, F, previous, t, scratch)
+                           : sweeps<2>(model, reg, F, previous, t, scratch);
 }
 
 double relaxedEnergy(const ResidualModel& model, const Regularizer& reg,

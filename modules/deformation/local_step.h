@@ -5,7 +5,9 @@
 //    with C_k = w_k F_k + sum_l w_kl (F_k - F_l + T_l) and weight = w_k + sum_l w_kl, so
 //    T_k = EnergyModel::fit(C_k, weight). Swept Gauss-Seidel over the colours of the element
 //    adjacency graph (a colour's elements are independent: updated in parallel), kLocalSweeps
-//    times, from the better of the previous targets and the per-element fit. Every sweep lowers
+//    times, from the better of the previous targets and the per-element fit. Before them the
+//    weakly anchored elements (Regularizer::weakComponents) are settled: each connected set's
+//    targets turned together by the best rotation, and swept on their own. Every update lowers
 //    eq. 3 or leaves it; without regularization it is the plain per-element fit.
 //  - reference: T_k fitted to F_k alone, as the paper's reference code does. With the
 //    regularizer this is not a minimization in T_k and local/global is not a descent method.
@@ -16,6 +18,7 @@
 #include <diffreg/deformation/residual_model.h>
 
 #include <string>
+#include <vector>
 
 namespace diffreg {
 
@@ -33,6 +36,7 @@ constexpr int kLocalSweeps = 4;
 struct LocalStepScratch {
   Stacked F;    ///< L_k x_k at the positions of the last step
   Stacked fit;  ///< the per-element fit, when the step updates its targets in place
+  std::vector<int> component;  ///< per element: its weakly anchored component, or -1
 };
 
 /// The local step at positions X: new targets `t` and their energy (ResidualModel::energy).

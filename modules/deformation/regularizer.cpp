@@ -2,6 +2,7 @@
 
 #include <diffreg/core/error.h>
 
+#include <algorithm>
 #include <string>
 
 namespace diffreg {
@@ -84,6 +85,65 @@ void Regularizer::setWeights(const RegularizationWeights& weights) {
     const double w = ell * weights.facet(static_cast<Eigen::Index>(f)) * facets[f].c;
     facetWeight_(static_cast<Eigen::Index>(f)) = w;
     if (w != 0.0) coupling_ = true;
+  }
+  weak_.clear();
+  weakColours_.clear();
+  weakDone_ = false;
+}
+
+const std::vector<std::vector<int>>& Regularizer::weakComponents() const {
+  findWeak();
+  return weak_;
+}
+
+const std::vector<std::vector<int>>& Regularizer::weakColours() const {
+  findWeak();
+  return weakColours_;
+}
+
+int Regularizer::numWeak() const {
+  int n = 0;
+  for (const std::vector<int>& c : weakComponents()) n += static_cast<int>(c.size());
+  return n;
+}
+
+void Regularizer::findWeak() const {
+  if (weakDone_) return;
+  weakDone_ = true;
+  const int m = disc_.numElements();
+  std::vector<char> weak(static_cast<size_t>(m), 0), seen(static_cast<size_t>(m), 0);
+  for (int k = 0; k < m && coupling_; ++k) {
+    double coupled = 0.0;
+    for (int g = facetBegin(k); g < facetEnd(k); ++g) coupled += neighbourWeight(g);
+    weak[static_cast<size_t>(k)] = coupled > 0.0 && elementWeight_(k) <= kWeakAnchor * coupled;
+  }
+  std::vector<int> stack;
+  for (int start = 0; start < m; ++start) {
+    if (!weak[static_cast<size_t>(start)] || seen[static_cast<size_t>(start)]) continue;
+    std::vector<int> component;
+    stack.assign(1, start);
+    seen[static_cast<size_t>(start)] = 1;
+    while (!stack.empty()) {
+      const int k = stack.back();
+      stack.pop_back();
+      component.push_back(k);
+      for (int g = facetBegin(k); g < facetEnd(k); ++g) {
+        const int l = neighbour(g);
+        if (weak[static_cast<size_t>(l)] && !seen[static_cast<size_t>(l)]) {
+          seen[static_cast<size_t>(l)] = 1;
+          stack.push_back(l);
+        }
+      }
+    }
+    std::sort(component.begin(), component.end());
+    weak_.push_back(std::move(component));
+  }
+  if (weak_.empty()) return;
+  for (const std::vector<int>& ids : colours()) {
+    std::vector<int> part;
+    for (int k : ids)
+      if (weak[static_cast<size_t>(k)]) part.push_back(k);
+    if (!part.empty()) weakColours_.push_back(std::move(part));
   }
 }
 

@@ -18,6 +18,10 @@
 
 namespace diffreg {
 
+/// An element is weakly anchored when its own weight w_k is at most this fraction of its
+/// facets' weights sum_l w_kl (beta_k above about 0.93 on a regular mesh).
+constexpr double kWeakAnchor = 0.01;
+
 class Regularizer {
  public:
   /// Element-facet incidence of `disc` (which must outlive this); no regularization.
@@ -45,13 +49,25 @@ class Regularizer {
   /// first use; at most 1 + the largest number of facets of an element colours).
   const std::vector<std::vector<int>>& colours() const;
 
+  /// The weakly anchored elements, w_k <= kWeakAnchor sum_l w_kl (beta_k = 1 inside a handle of
+  /// magnitude 1, or nearly so), by connected component (facet adjacency). Only their
+  /// neighbours hold their targets: a component's targets turning together barely change the
+  /// energy, so sweeps settle that turn only slowly. Computed on first use after setWeights().
+  const std::vector<std::vector<int>>& weakComponents() const;
+  /// colours() restricted to the weakly anchored elements (empty colours left out).
+  const std::vector<std::vector<int>>& weakColours() const;
+  /// Number of weakly anchored elements.
+  int numWeak() const;
+
  private:
   const Discretization& disc_;
   RegularizationWeights weights_;
   Eigen::VectorXd elementWeight_, facetWeight_;
   bool coupling_ = false;
   std::vector<int> facetStart_, elementFacets_, neighbour_;
-  mutable std::vector<std::vector<int>> colours_;
+  void findWeak() const;
+  mutable std::vector<std::vector<int>> colours_, weak_, weakColours_;
+  mutable bool weakDone_ = false;
 };
 
 }  // namespace diffreg
