@@ -51,18 +51,13 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
 // stay admissible: Q R_k P_k for surfaces). Every term that holds one of those targets has the
 // form w ||A - Q B||^2, so Q maximizes tr(Q^T sum w A B^T): the closest rotation to that sum.
 // Q = I is a candidate, so the energy never rises. The sweeps alone settle such a turn about one
-// element per sweep (a 26K-vertex planar mesh pulled by a handle of magnitude 1: 1776 L-BFGS
-// iterations instead of 31, docs/benchmarks.md).
+// element per sweep (with the sweeps of settleWeak: a 26K-vertex planar mesh pulled by a handle
+// of magnitude 1 took 1776 L-BFGS iterations instead of 153, docs/benchmarks.md).
 template <int D>
-void turnWeakComponents(const Regularizer& reg, const Stacked& F, Stacked& t,
-                        std::vector<int>& component) {
+void turnWeakComponents(const Regularizer& reg, const Stacked& F, Stacked& t) {
   using Block = Eigen::Matrix<double, D, D, Eigen::RowMajor>;  // stored: F_k^T, T_k^T
   const std::vector<std::vector<int>>& parts = reg.weakComponents();
   if (parts.empty()) return;
-  const int m = static_cast<int>(F.rows() / D);
-  component.assign(static_cast<size_t>(m), -1);
-  for (size_t c = 0; c < parts.size(); ++c)
-    for (int k : parts[c]) component[static_cast<size_t>(k)] = static_cast<int>(c);
   auto stored = [](const Stacked& S, int k) {
     return Eigen::Map<const Block>(S.data() + static_cast<Eigen::Index>(k) * D * D);
   };
@@ -77,7 +72,7 @@ void turnWeakComponents(const Regularizer& reg, const Stacked& F, Stacked& t,
         const double w = reg.neighbourWeight(g);
         const int l = reg.neighbour(g);
         if (w == 0.0) continue;
-        if (component[static_cast<size_t>(l)] == static_cast<int>(c)) {
+        if (reg.weak(l)) {  // a weak neighbour is in the same (maximal) component
           if (l < k) continue;  // the facet counted once: A = F_k - F_l, B = T_k - T_l
           const Block A = Fk - stored(F, l), B = Tk - stored(t, l);
           M.noalias() += w * A.transpose() * B;
@@ -89,7 +84,8 @@ void turnWeakComponents(const Regularizer& reg, const Stacked& F, Stacked& t,
     }
     Eigen::Matrix<double, D, 1> sigma;
     const Eigen::Matrix<double, D, D> Q = closestRotation<D>(M, sigma);
-    if (!(sigma.sum() > M.trace())) continue;  // no turn lowers the energy
+    // No turn lowers the energy by more than rounding: keep Q = I.
+    if (!(sigma.sum() - M.trace() > 1e-14 * sigma.cwiseAbs().sum())) continue;
     for (int k : parts[c]) {
       Eigen::Map<Block> Tk(t.data() + static_cast<Eigen::Index>(k) * D * D);
       Tk = (Tk * Q.transpose()).eval();  // (Q T_k)^T = T_k^T Q^T
@@ -98,17 +94,17 @@ void turnWeakComponents(const Regularizer& reg, const Stacked& F, Stacked& t,
 }
 
 // The weakly anchored elements settled before the sweeps: turns of their components and sweeps
-// over them alone (kWeakSweeps, or fewer when they are a large part of the mesh: at most about
-// one sweep's work), in rounds of kWeakRound sweeps between turns. Both only lower the energy.
+// over them alone (kWeakSweeps, or fewer when they are more than 1/64 of the mesh: about a
+// quarter of a sweep's work at most, at least one sweep), in rounds of kWeakRound sweeps between
+// turns. Both only lower the energy.
 template <int D>
-void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t,
-                LocalStepScratch& scratch) {
+void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t) {
   const int weak = reg.numWeak();
   if (weak == 0) return;
   const int m = static_cast<int>(F.rows() / D);
-  const int total = std::min(kWeakSweeps, std::max(1, m / weak));
+  const int total = std::min(kWeakSweeps, std::max(1, m / (4 * weak)));
   for (int done = 0;;) {
-    turnWeakComponents<D>(reg, F, t, scratch.component);
+    turnWeakComponents<D>(reg, F, t);
     if (done >= total) return;
     for (int end = std::min(total, done + kWeakRound); done < end; ++done)
       for (const std::vector<int>& ids : reg.weakColours()) sweepColour<D>(model, reg, ids, F, t);
@@ -132,7 +128,7 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
     model.fitTargets(F, t);
     if (!(model.energy(F, t, w) < model.energy(F, *previous, w))) t = *previous;
   }
-  settleWeak<D>(model, reg, F, t, scratch);
+  settleWeak<D>(model, reg, F, t);
   for (int i = 0; i < kLocalSweeps; ++i)
     for (const std::vector<int>& ids : reg.colours()) sweepColour<D>(model, reg, ids, F, t);
   return model.energy(F, t, w);

@@ -18,7 +18,6 @@
 #include <diffreg/deformation/residual_model.h>
 
 #include <string>
-#include <vector>
 
 namespace diffreg {
 
@@ -36,7 +35,6 @@ constexpr int kLocalSweeps = 4;
 struct LocalStepScratch {
   Stacked F;    ///< L_k x_k at the positions of the last step
   Stacked fit;  ///< the per-element fit, when the step updates its targets in place
-  std::vector<int> component;  ///< per element: its weakly anchored component, or -1
 };
 
 /// The local step at positions X: new targets `t` and their energy (ResidualModel::energy).

@@ -109,14 +109,17 @@ int Regularizer::numWeak() const {
 
 void Regularizer::findWeak() const {
   if (weakDone_) return;
-  weakDone_ = true;
   const int m = disc_.numElements();
-  std::vector<char> weak(static_cast<size_t>(m), 0), seen(static_cast<size_t>(m), 0);
+  weak_.clear();
+  weakColours_.clear();
+  weakFlag_.assign(static_cast<size_t>(m), 0);
+  std::vector<char>& weak = weakFlag_;
   for (int k = 0; k < m && coupling_; ++k) {
     double coupled = 0.0;
     for (int g = facetBegin(k); g < facetEnd(k); ++g) coupled += neighbourWeight(g);
     weak[static_cast<size_t>(k)] = coupled > 0.0 && elementWeight_(k) <= kWeakAnchor * coupled;
   }
+  std::vector<char> seen(static_cast<size_t>(m), 0);
   std::vector<int> stack;
   for (int start = 0; start < m; ++start) {
     if (!weak[static_cast<size_t>(start)] || seen[static_cast<size_t>(start)]) continue;
@@ -138,13 +141,14 @@ void Regularizer::findWeak() const {
     std::sort(component.begin(), component.end());
     weak_.push_back(std::move(component));
   }
-  if (weak_.empty()) return;
-  for (const std::vector<int>& ids : colours()) {
-    std::vector<int> part;
-    for (int k : ids)
-      if (weak[static_cast<size_t>(k)]) part.push_back(k);
-    if (!part.empty()) weakColours_.push_back(std::move(part));
-  }
+  if (!weak_.empty())
+    for (const std::vector<int>& ids : colours()) {
+      std::vector<int> part;
+      for (int k : ids)
+        if (weak[static_cast<size_t>(k)]) part.push_back(k);
+      if (!part.empty()) weakColours_.push_back(std::move(part));
+    }
+  weakDone_ = true;
 }
 
 const std::vector<std::vector<int>>& Regularizer::colours() const {

@@ -19,7 +19,7 @@
 namespace diffreg {
 
 /// An element is weakly anchored when its own weight w_k is at most this fraction of its
-/// facets' weights sum_l w_kl (beta_k above about 0.93 on a regular mesh).
+/// facets' weights sum_l w_kl (beta_k above about 0.93 on a regular triangle mesh).
 constexpr double kWeakAnchor = 0.01;
 
 class Regularizer {
@@ -58,6 +58,8 @@ class Regularizer {
   const std::vector<std::vector<int>>& weakColours() const;
   /// Number of weakly anchored elements.
   int numWeak() const;
+  /// Whether element k is weakly anchored (after weakComponents() or numWeak()).
+  bool weak(int k) const { return weakFlag_[static_cast<size_t>(k)] != 0; }
 
  private:
   const Discretization& disc_;
@@ -66,7 +68,9 @@ class Regularizer {
   bool coupling_ = false;
   std::vector<int> facetStart_, elementFacets_, neighbour_;
   void findWeak() const;
+  // Computed on first use (single-threaded use of a const Regularizer, as for colours_).
   mutable std::vector<std::vector<int>> colours_, weak_, weakColours_;
+  mutable std::vector<char> weakFlag_;
   mutable bool weakDone_ = false;
 };
 

@@ -12,7 +12,6 @@ namespace diffreg {
 
 namespace {
 
-constexpr int kGrain = 2048;   // elements or unknowns per parallel chunk
 constexpr int kColourGrain = 256;  // a scatter colour's elements per chunk (a tenth to a
                                    // thirtieth of the elements: small chunks keep both threads busy)
 constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
@@ -257,13 +256,21 @@ void RegularizedSystem::residualGradient(const Stacked& F, const Stacked& t, Eig
   zeroFixed(g);
 }
 
+std::vector<std::vector<int>> RegularizedSystem::scatterColours() const {
+  std::vector<std::vector<int>> colours;
+  for (size_t c = 0; c + 1 < scatterStart_.size(); ++c)
+    colours.emplace_back(scatterOrder_.begin() + scatterStart_[c],
+                         scatterOrder_.begin() + scatterStart_[c + 1]);
+  return colours;
+}
+
 void RegularizedSystem::applyC(const Stacked& t, const Stacked* F, Eigen::MatrixXd& b) const {
   const int r = model_.rows(), c = model_.columns(), u = model_.localSize();
   const int N = model_.numUnknowns();
   if (b.rows() != N || b.cols() != c) b.resize(N, c);
   b.setZero();
   // Colour by colour, each element adds its share L_k^T tau_k straight into b: no array of all
-  // shares (m u c doubles, 137 MiB at a million faces, the 1M session's peak).
+  // shares (m u c doubles, 137 MiB at two million faces, the 1M-vertex session's peak).
   for (size_t colour = 0; colour + 1 < scatterStart_.size(); ++colour) {
     const int* ids = scatterOrder_.data() + scatterStart_[colour];
     const int count = scatterStart_[colour + 1] - scatterStart_[colour];

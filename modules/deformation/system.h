@@ -87,6 +87,9 @@ class RegularizedSystem {
   /// same x (ResidualModel::gradients), on the free unknowns (0 on the fixed ones): one pass
   /// over the elements instead of a product with A and a right-hand side. Factorizes if needed.
   void residualGradient(const Stacked& F, const Stacked& t, Eigen::MatrixXd& g);
+  /// The elements by scatter colour: no two elements of one colour share an unknown, so C t
+  /// adds a colour's shares in parallel.
+  std::vector<std::vector<int>> scatterColours() const;
   const SolverStats& stats() const { return solver_.stats(); }
   const ResidualModel& model() const { return model_; }
 
