@@ -180,11 +180,24 @@ TEST_CASE("targets that only their neighbours hold settle: few iterations to a s
     REQUIRE(r.converged);
     for (size_t i = 1; i < r.energies.size(); ++i)
       CHECK(r.energies[i] <= r.energies[i - 1] * (1 + 1e-12));
-    // With them settled: planar 119, tet 38 iterations; without, 1080 and 363. The thin tube
-    // runs for hundreds either way (no bending stiffness: 336 / 305), so it is only checked
-    // for descent and stationarity.
+    // With them settled: planar 132, tet 43 iterations (40% of the elements are weak here, so
+    // one sweep of them and two turns per step); without, 1080 and 363. The thin tube runs for
+    // hundreds either way (no bending stiffness: 302 / 305), so it is only checked for descent
+    // and stationarity.
     if (kind == MeshKind::Planar) CHECK(r.iterations <= 200);
     if (kind == MeshKind::Tet) CHECK(r.iterations <= 100);
+    // 3D ASAP's targets are scaled rotations: turned, they stay admissible, and the energy
+    // still never rises.
+    if (kind != MeshKind::Planar) {
+      DeformationOptions asap = o;
+      asap.energy = Energy::Asap;
+      asap.maxIterations = 300;
+      const DeformationResult ra = deform(disc, asap, handles, targets);
+      INFO("asap: " << ra.iterations << " iterations");
+      CHECK(ra.positions.allFinite());
+      for (size_t i = 1; i < ra.energies.size(); ++i)
+        CHECK(ra.energies[i] <= ra.energies[i - 1] * (1 + 1e-12));
+    }
     DeformationOptions plain = o;
     plain.acceleration = Acceleration::None;
     DeformationSession more(disc, plain);
