@@ -13,15 +13,16 @@ namespace {
 constexpr int kGrain = 1024;  // elements per parallel chunk
 constexpr int kWeakSweeps = 16;  // sweeps over the weakly anchored elements per local step
 constexpr int kWeakRound = 8;    // of them between two turns
+constexpr int kWeakGrain = 128;  // their colours are small: chunks that keep both threads busy
 
 // One colour of the exact sweep: T_k = fit(C_k, weight) for its elements, in place in t (F and
 // t hold row-major D x D blocks F_k^T and T_k^T).
 template <int D>
 void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::vector<int>& ids,
-                 const Stacked& F, Stacked& t) {
+                 const Stacked& F, Stacked& t, int grain = kGrain) {
   constexpr int dd = D * D;
   const Eigen::VectorXd& wk = reg.elementWeight();
-  parallel::forChunks(static_cast<int>(ids.size()), kGrain, [&](int, int begin, int end) {
+  parallel::forChunks(static_cast<int>(ids.size()), grain, [&](int, int begin, int end) {
     double Ct[9];
     for (int i = begin; i < end; ++i) {
       const int k = ids[static_cast<size_t>(i)];
@@ -107,7 +108,8 @@ void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacke
     turnWeakComponents<D>(reg, F, t);
     if (done >= total) return;
     for (int end = std::min(total, done + kWeakRound); done < end; ++done)
-      for (const std::vector<int>& ids : reg.weakColours()) sweepColour<D>(model, reg, ids, F, t);
+      for (const std::vector<int>& ids : reg.weakColours())
+        sweepColour<D>(model, reg, ids, F, t, kWeakGrain);
   }
 }
 
