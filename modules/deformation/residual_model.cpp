@@ -115,11 +115,6 @@ Eigen::MatrixXd ResidualModel::local(int k) const {
   return out;
 }
 
-int ResidualModel::unknown(int k, int j) const {
-  const int v = disc_.elements()(k, j / dofsPerVertex_);
-  return v * dofsPerVertex_ + j % dofsPerVertex_;
-}
-
 Eigen::MatrixXd ResidualModel::toUnknowns(const Eigen::MatrixXd& P) const {
   if (!coupled_) return P;
   Eigen::MatrixXd x(static_cast<Eigen::Index>(P.rows()) * dim_, 1);

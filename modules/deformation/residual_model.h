@@ -48,8 +48,12 @@ class ResidualModel {
   Operators operators() const;
   /// L_k (rows() x localSize()).
   Eigen::MatrixXd local(int k) const;
-  /// Global unknown index of element k's local unknown j.
-  int unknown(int k, int j) const;
+  /// Global unknown index of element k's local unknown j (inline: the right-hand side's scatter
+  /// calls it for every element and local unknown).
+  int unknown(int k, int j) const {
+    const int v = disc_.elements()(k, j / dofsPerVertex_);
+    return v * dofsPerVertex_ + j % dofsPerVertex_;
+  }
 
   /// Positions (n x d) in the unknown layout (numUnknowns() x columns()) and back.
   Eigen::MatrixXd toUnknowns(const Eigen::MatrixXd& positions) const;
