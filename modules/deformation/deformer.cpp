@@ -61,7 +61,7 @@ void DeformationCore::setTargets(const Eigen::MatrixXd& targets) {
 }
 
 void DeformationCore::setRegularization(Regularization mode, double beta,
-                                           const Eigen::VectorXd& weights) {
+                                        const Eigen::VectorXd& weights) {
   const RegularizationWeights w = makeRegularizationWeights(disc_, mode, beta, weights);
   options_.regularization = mode;
   options_.beta = beta;
@@ -96,7 +96,7 @@ DeformationResult DeformationCore::solve(int maxIterations, double relTolerance)
 }
 
 DeformationResult DeformationCore::solveFrom(const Eigen::MatrixXd& initial, int maxIterations,
-                                                double relTolerance) {
+                                             double relTolerance) {
   const int d = disc_.dim();
   if (initial.rows() != disc_.numVertices() || initial.cols() != d)
     throw InvalidParameter("deformation: the initial positions must be " +
@@ -131,9 +131,10 @@ Eigen::MatrixXd DeformationCore::restSolve() {
   return system_.solveRightHandSide(restRhs_, targets_);
 }
 
-double DeformationCore::local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t) {
-  const double E =
-      localStep(model_, system_.regularizer(), options_.localStep, X, previous, t, scratch_);
+double DeformationCore::local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
+                              double reference) {
+  const double E = localStep(model_, system_.regularizer(), options_.localStep, X, previous, t,
+                             scratch_, reference);
   if (!std::isfinite(E))
     throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
   return E;
@@ -145,7 +146,7 @@ void DeformationCore::report(const DeformationResult& result) const {
 }
 
 double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X,
-                                 DeformationResult& result) {
+                              DeformationResult& result) {
   // The first local step fits every target to its own element first (no previous targets).
   if (initial) {
     // The given shape's targets, then one global step: it puts the handles at their targets,
@@ -174,7 +175,7 @@ double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X
 }
 
 void DeformationCore::iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X,
-                                          double E, DeformationResult& result) {
+                                       double E, DeformationResult& result) {
   while (result.iterations < maxIterations) {
     X = system_.solve(t_, targets_);
     const double previous = E;
@@ -190,8 +191,8 @@ void DeformationCore::iterateReference(int maxIterations, double tolerance, Eige
   }
 }
 
-void DeformationCore::descend(int maxIterations, double tolerance, Eigen::MatrixXd& X,
-                                 double E, DeformationResult& result) {
+void DeformationCore::descend(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
+                              DeformationResult& result) {
   AndersonMixer& mixer = anderson_;
   const bool accelerate = options_.acceleration == Acceleration::Anderson;
   Stacked& plainT = trialT_;
@@ -201,13 +202,13 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
     // The plain step: the global step for the current targets, then the local step. Both are
     // exact minimizers, so its energy is at most E; how much lower is the criterion.
     Eigen::MatrixXd plain;
-    const double plainEnergy = plainStep(plain, plainT);
+    const double plainEnergy = plainStep(plain, plainT, E);
     result.criterion = E > 0.0 ? std::max(0.0, (E - plainEnergy) / E) : 0.0;
     // The Anderson step, taken only when it ends lower than E (the safeguard).
     bool takeMixed = false;
     double mixedEnergy = plainEnergy;
     if (accelerate && mixer.mix(X, plain, mixed)) {
-      mixedEnergy = local(mixed, &t_, mixedT);
+      mixedEnergy = local(mixed, &t_, mixedT, E);
       takeMixed = mixedEnergy < E;
     }
     if (takeMixed) {
@@ -233,9 +234,9 @@ void DeformationCore::advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Stacked
   ++result.iterations;
 }
 
-double DeformationCore::plainStep(Eigen::MatrixXd& X, Stacked& t) {
+double DeformationCore::plainStep(Eigen::MatrixXd& X, Stacked& t, double E) {
   X = system_.solve(t_, targets_);
-  return local(X, &t_, t);
+  return local(X, &t_, t, E);
 }
 
 Eigen::MatrixXd DeformationCore::gradient(const Eigen::MatrixXd& X, const Stacked& t,
@@ -248,7 +249,7 @@ Eigen::MatrixXd DeformationCore::gradient(const Eigen::MatrixXd& X, const Stacke
 }
 
 void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X,
-                                      double E, DeformationResult& result) {
+                                   double E, DeformationResult& result) {
   constexpr double kArmijo = 1e-4;
   constexpr int kBacktracks = 6;
   if (result.iterations >= maxIterations) return;  // e.g. one iteration: the first global step
@@ -283,18 +284,18 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     bool found = false;
     for (int i = 0; i < kBacktracks && !found; ++i, alpha *= 0.5) {
       trial = X + alpha * d;
-      energy = local(trial, &t_, trialT);
+      energy = local(trial, &t_, trialT, E);
       found = energy <= E + kArmijo * alpha * slope;
     }
     if (found && history.size() > 0) ++result.accelerated;
     if (!found) {  // the plain step, a descent by construction
       history.reset();
-      energy = plainStep(trial, trialT);
+      energy = plainStep(trial, trialT, E);
     }
     result.criterion = accept(energy);
     if (result.criterion <= tolerance && result.iterations < maxIterations) {
       // Stationarity is decided by a plain step: what one more local/global iteration gains.
-      result.criterion = accept(plainStep(trial, trialT));
+      result.criterion = accept(plainStep(trial, trialT, E));
       if (result.criterion <= tolerance) result.converged = true;
     }
     report(result);
@@ -307,7 +308,7 @@ DeformationResult DeformationCore::resume(int maxIterations, double relTolerance
 }
 
 DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
-                                          const Eigen::MatrixXd* initial, bool resume) {
+                                       const Eigen::MatrixXd* initial, bool resume) {
   if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
   if (maxIterations < 1)
     throw InvalidParameter("deformation: iterations = " + std::to_string(maxIterations) +
@@ -345,8 +346,7 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
     resumable_ = true;
   }
   result.positions = std::move(X);
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   return result;
 }
 

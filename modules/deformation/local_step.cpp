@@ -5,12 +5,13 @@
 #include <diffreg/deformation/rotation.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace diffreg {
 
 namespace {
 
-constexpr int kGrain = 1024;  // elements per parallel chunk
+constexpr int kGrain = 1024;     // elements per parallel chunk
 constexpr int kWeakSweeps = 16;  // sweeps over the weakly anchored elements per local step
 constexpr int kWeakRound = 8;    // of them between two turns
 constexpr int kWeakGrain = 128;  // their colours are small: chunks that keep both threads busy
@@ -73,7 +74,7 @@ void turnWeakComponents(const Regularizer& reg, const Stacked& F, Stacked& t) {
         const double w = reg.neighbourWeight(g);
         const int l = reg.neighbour(g);
         if (w == 0.0) continue;
-        if (reg.weak(l)) {  // a weak neighbour is in the same (maximal) component
+        if (reg.weak(l)) {      // a weak neighbour is in the same (maximal) component
           if (l < k) continue;  // the facet counted once: A = F_k - F_l, B = T_k - T_l
           const Block A = Fk - stored(F, l), B = Tk - stored(t, l);
           M.noalias() += w * A.transpose() * B;
@@ -115,20 +116,35 @@ void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacke
 
 // The exact step's sweeps from the better of the previous targets (if any) and the
 // per-element fit: the sweeps then lower the energy further, so the step never raises it, and
-// the per-element fit brings the rotations along at once where the shape has turned.
+// the per-element fit brings the rotations along at once where the shape has turned. The fit
+// is not tried where it is unlikely to win (kFitCandidateGap).
 template <int D>
 double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked& F,
-              const Stacked* previous, Stacked& t, LocalStepScratch& scratch) {
+              const Stacked* previous, Stacked& t, LocalStepScratch& scratch, double reference) {
   Stacked& fit = scratch.fit;
   const RegularizationWeights& w = reg.weights();
   if (!previous) {
     model.fitTargets(F, t);
-  } else if (previous == &t) {  // in place: the fit goes to scratch space first
-    model.fitTargets(F, fit);
-    if (model.energy(F, fit, w) < model.energy(F, t, w)) t.swap(fit);
   } else {
-    model.fitTargets(F, t);
-    if (!(model.energy(F, t, w) < model.energy(F, *previous, w))) t = *previous;
+    const double kept = model.energy(F, *previous, w);
+    const bool close =
+        reference > 0.0 && std::abs(kept - reference) <= kFitCandidateGap * reference;
+    const bool skip = close && !scratch.fitWon && scratch.fitSkipped < kFitRetry;
+    if (skip) {
+      ++scratch.fitSkipped;
+      if (previous != &t) t = *previous;
+    } else {
+      scratch.fitSkipped = 0;
+      if (previous == &t) {  // in place: the fit goes to scratch space first
+        model.fitTargets(F, fit);
+        scratch.fitWon = model.energy(F, fit, w) < kept;
+        if (scratch.fitWon) t.swap(fit);
+      } else {
+        model.fitTargets(F, t);
+        scratch.fitWon = model.energy(F, t, w) < kept;
+        if (!scratch.fitWon) t = *previous;
+      }
+    }
   }
   settleWeak<D>(model, reg, F, t);
   for (int i = 0; i < kLocalSweeps; ++i)
@@ -140,7 +156,7 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
 
 double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep step,
                  const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
-                 LocalStepScratch& scratch) {
+                 LocalStepScratch& scratch, double reference) {
   Stacked& F = scratch.F;
   model.gradients(X, F);
   const bool sweep = model.iterative() && step == LocalStep::Exact && reg.coupling();
@@ -152,12 +168,11 @@ double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep s
   }
   if (previous && (previous->rows() != F.rows() || previous->cols() != F.cols()))
     previous = nullptr;
-  return model.rows() == 3 ? sweeps<3>(model, reg, F, previous, t, scratch)
-                           : sweeps<2>(model, reg, F, previous, t, scratch);
+  return model.rows() == 3 ? sweeps<3>(model, reg, F, previous, t, scratch, reference)
+                           : sweeps<2>(model, reg, F, previous, t, scratch, reference);
 }
 
-double relaxedEnergy(const ResidualModel& model, const Regularizer& reg,
-                     const Eigen::MatrixXd& X) {
+double relaxedEnergy(const ResidualModel& model, const Regularizer& reg, const Eigen::MatrixXd& X) {
   Stacked t;
   LocalStepScratch scratch;
   double E = localStep(model, reg, LocalStep::Exact, X, nullptr, t, scratch);

@@ -54,19 +54,21 @@ class DeformationCore {
   void descendLbfgs(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                     DeformationResult& result);
   // Makes (next, nextT) with its energy the current iterate (X, t_, E) and counts it.
-  void advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Stacked& nextT, double energy,
-               double& E, DeformationResult& result);
-  // The plain step from the current targets t_: the global step into X, then the local step
-  // into t. Returns its energy (at most the energy of the current iterate).
-  double plainStep(Eigen::MatrixXd& X, Stacked& t);
+  void advance(Eigen::MatrixXd& X, Eigen::MatrixXd& next, Stacked& nextT, double energy, double& E,
+               DeformationResult& result);
+  // The plain step from the current targets t_ (whose iterate has energy E): the global step
+  // into X, then the local step into t. Returns its energy (at most E).
+  double plainStep(Eigen::MatrixXd& X, Stacked& t, double E);
   // The energy gradient's direction A X - C t on the free unknowns (0 on the fixed ones).
   // `afterLocal`: the last local step was at X, so its F (scratch_.F) serves.
   Eigen::MatrixXd gradient(const Eigen::MatrixXd& X, const Stacked& t, bool afterLocal = false);
   void iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                         DeformationResult& result);
   Eigen::MatrixXd restSolve();
-  // The local step at X into t from `previous` (localStep).
-  double local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t);
+  // The local step at X into t from `previous` (localStep; `reference`: the energy of the
+  // iterate `previous` belongs to, 0 for none).
+  double local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
+               double reference = 0.0);
   void report(const DeformationResult& result) const;
   const Discretization& disc_;
   DeformationOptions options_;
@@ -77,8 +79,8 @@ class DeformationCore {
   std::unique_ptr<RegularizedSystem> initSystem_;
   std::vector<int> handles_;
   Eigen::MatrixXd targets_;
-  Stacked t_;                // targets, reused across iterations
-  Stacked trialT_;           // the targets of a trial step (line search, plain step)
+  Stacked t_;                 // targets, reused across iterations
+  Stacked trialT_;            // the targets of a trial step (line search, plain step)
   LocalStepScratch scratch_;  // the local step's F and per-element fit
   // Where the last iterative run stopped, for resume(): its shape and energy (with t_) and the
   // acceleration's memory.
@@ -88,9 +90,9 @@ class DeformationCore {
   LbfgsHistory lbfgs_{1};
   AndersonMixer anderson_{1};
   std::unique_ptr<HandleBasis> basis_;  // options_.handleBasis: for these handles and weights
-  Eigen::MatrixXd restRhs_;  // C t for the rest shape's targets and the current weights
-                             // (empty: not yet)
-  Eigen::MatrixXd initRhs_;      // the same for the ASAP initial guess's system
+  Eigen::MatrixXd restRhs_;             // C t for the rest shape's targets and the current weights
+                                        // (empty: not yet)
+  Eigen::MatrixXd initRhs_;             // the same for the ASAP initial guess's system
 };
 
 }  // namespace diffreg
