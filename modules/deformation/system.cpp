@@ -12,8 +12,9 @@ namespace diffreg {
 
 namespace {
 
-constexpr int kColourGrain = 256;  // a scatter colour's elements per chunk (a tenth to a
-                                   // thirtieth of the elements: small chunks keep both threads busy)
+constexpr int kColourGrain =
+    256;                      // a scatter colour's elements per chunk (a tenth to a
+                              // thirtieth of the elements: small chunks keep both threads busy)
 constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
 
 // Adds the shares L_k^T tau_k of the elements `ids[0..count)` to the rows of b, with
@@ -92,7 +93,7 @@ void RegularizedSystem::setWeights(const RegularizationWeights& weights) {
   regularizer_.setWeights(weights);
   const bool couplings = reserveCouplings_ || regularizer_.coupling() || couplings_;
   if (A_.rows() == 0 || couplings != couplings_) buildPattern(couplings);
-  assemble();
+  valuesDirty_ = true;
   matrixDirty_ = true;
 }
 
@@ -185,7 +186,7 @@ void RegularizedSystem::buildPattern(bool couplings) {
   couplings_ = couplings;
 }
 
-void RegularizedSystem::assemble() {
+void RegularizedSystem::assemble() const {
   const Discretization& disc = model_.discretization();
   const int m = disc.numElements(), r = model_.rows(), u = model_.localSize();
   const auto& facets = disc.facets();
@@ -215,7 +216,10 @@ void RegularizedSystem::assemble() {
         entry(ids[i], ids[j]) += w * sum;
       }
   }
-  if (!couplings_) return;
+  if (!couplings_) {
+    valuesDirty_ = false;
+    return;
+  }
 
   // Facets: ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) over the union of their unknowns.
   std::vector<double> M(static_cast<size_t>(r) * 2 * u);  // r x U, column-major
@@ -245,6 +249,7 @@ void RegularizedSystem::assemble() {
         entry(ids[i], ids[j]) += w * sum;
       }
   }
+  valuesDirty_ = false;
 }
 
 void RegularizedSystem::rightHandSide(const Stacked& t, Eigen::MatrixXd& b) const {
@@ -282,8 +287,7 @@ void RegularizedSystem::applyC(const Stacked& t, const Stacked* F, Eigen::Matrix
       else if (!model_.coupled() && r == 2 && u == 3)
         scatterShares<2, 2, 3>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
       else
-        scatterShares<-1, -1, -1>(model_, t, F, regularizer_, r, c, u, ids + begin,
-                                  end - begin, b);
+        scatterShares<-1, -1, -1>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
     });
   }
 }
@@ -378,6 +382,7 @@ void RegularizedSystem::prepare() {
     matrixDirty_ = true;
   }
   if (matrixDirty_) {
+    if (valuesDirty_) assemble();
     try {
       solver_.setMatrix(A_, !patternChanged_);
       patternChanged_ = false;

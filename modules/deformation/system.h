@@ -79,8 +79,12 @@ class RegularizedSystem {
   /// Sets the rows of the fixed unknowns to zero. Factorizes if needed.
   void zeroFixed(Eigen::MatrixXd& x);
 
-  /// The full system matrix A (numUnknowns() square), assembled for the current weights.
-  const SparseMatrix& matrix() const { return A_; }
+  /// The full system matrix A (numUnknowns() square), assembled for the current weights
+  /// (on first use after setWeights()).
+  const SparseMatrix& matrix() const {
+    if (valuesDirty_) assemble();
+    return A_;
+  }
   /// The right-hand side C t (numUnknowns() x model().columns()) for stacked targets t.
   void rightHandSide(const Stacked& t, Eigen::MatrixXd& b) const;
   /// The energy gradient's direction A x - C t = C (F - t) for F the stacked L_k x_k of the
@@ -96,7 +100,9 @@ class RegularizedSystem {
  private:
   void buildTopology();
   void buildPattern(bool couplings);
-  void assemble();
+  // A's values for the current weights: done when first needed (prepare(), matrix()), so that
+  // weights set twice before a solve (a session's construction) assemble once.
+  void assemble() const;
   // Values of the fixed unknowns (solver partition order) from one row per handle vertex;
   // vertices without elements get their rest positions (`restOffHandles`) or 0.
   Eigen::MatrixXd fixedValues(const Eigen::MatrixXd& handleValues, bool restOffHandles) const;
@@ -113,8 +119,9 @@ class RegularizedSystem {
   // The elements by scatter colour (no two of a colour share an unknown), CSR.
   std::vector<int> scatterStart_, scatterOrder_;
   bool reserveCouplings_ = true, couplings_ = false;
-  SparseMatrix A_;
-  Eigen::MatrixXd b_;                         // right-hand side, reused
+  mutable SparseMatrix A_;
+  mutable bool valuesDirty_ = true;  // A_'s values are not those of the current weights
+  Eigen::MatrixXd b_;                // right-hand side, reused
   EliminatedSolver solver_;
   bool partitionDirty_ = true, matrixDirty_ = true;
   bool patternChanged_ = true;  // since the solver last saw A_
