@@ -1,0 +1,110 @@
+// The exact local step (local_step.h): a block coordinate descent on eq. 3 in the targets that
+// never raises it, and the per-element fit candidate tried where it can win.
+#include "test_deformation_fixtures.h"
+
+#include <diffreg/deformation/local_step.h>
+#include <diffreg/deformation/system.h>
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace diffreg;
+using namespace diffreg::testing;
+
+namespace {
+
+// The bar bent smoothly: each point turned about the z axis by an angle growing along x.
+Eigen::MatrixXd bend(const Eigen::MatrixXd& rest, double amount) {
+  Eigen::MatrixXd X = rest;
+  for (Eigen::Index v = 0; v < rest.rows(); ++v) {
+    const double a = amount * rest(v, 0) / 4.0;
+    const double x = rest(v, 0), y = rest(v, 1);
+    X(v, 0) = std::cos(a) * x - std::sin(a) * y;
+    X(v, 1) = std::sin(a) * x + std::cos(a) * y;
+  }
+  return X;
+}
+
+struct Setup {
+  std::unique_ptr<Discretization> disc;
+  std::unique_ptr<ResidualModel> model;
+  std::unique_ptr<RegularizedSystem> system;
+  explicit Setup(MeshKind kind) : disc(makeBar(kind)) {
+    model = std::make_unique<ResidualModel>(*disc, Energy::Arap);
+    system = std::make_unique<RegularizedSystem>(*model);
+    system->setWeights(makeRegularizationWeights(*disc, Regularization::Uniform, 0.5));
+  }
+  const Regularizer& reg() const { return system->regularizer(); }
+  double energy(const Eigen::MatrixXd& X, const Stacked& t) const {
+    Stacked F;
+    model->gradients(X, F);
+    return model->energy(F, t, reg().weights());
+  }
+};
+
+}  // namespace
+
+TEST_CASE(
+    "the exact local step never raises eq. 3 from the previous targets, whether or not "
+    "it tries the per-element fit",
+    "[deformation][local_step]") {
+  for (MeshKind kind : kAllKinds) {
+    INFO(toString(kind));
+    Setup s(kind);
+    const Eigen::MatrixXd X0 = bend(s.disc->rest(), 0.6), X1 = bend(s.disc->rest(), 0.65);
+    LocalStepScratch scratch;
+    Stacked t0, t;
+    const double E0 = localStep(*s.model, s.reg(), LocalStep::Exact, X0, nullptr, t0, scratch);
+    const double kept = s.energy(X1, t0);
+    for (bool fitWon : {true, false}) {
+      scratch.fitWon = fitWon;
+      scratch.fitSkipped = 0;
+      const double E = localStep(*s.model, s.reg(), LocalStep::Exact, X1, &t0, t, scratch, E0);
+      CHECK(E <= kept * (1 + 1e-14));
+      CHECK(E == Approx(s.energy(X1, t)).epsilon(1e-12));
+    }
+  }
+}
+
+TEST_CASE(
+    "the per-element fit is skipped only near the reference after a loss, and tried "
+    "again after kFitRetry skips or a large turn",
+    "[deformation][local_step]") {
+  for (MeshKind kind : kAllKinds) {
+    INFO(toString(kind));
+    Setup s(kind);
+    const Eigen::MatrixXd X0 = bend(s.disc->rest(), 0.6);
+    LocalStepScratch scratch;
+    Stacked t0, t;
+    double E0 = localStep(*s.model, s.reg(), LocalStep::Exact, X0, nullptr, t0, scratch);
+    for (int i = 0; i < 10; ++i)
+      E0 = localStep(*s.model, s.reg(), LocalStep::Exact, X0, &t0, t0, scratch);
+    // A small change of the shape: the previous targets stay within the gap of E0.
+    const Eigen::MatrixXd X1 = bend(s.disc->rest(), 0.601);
+    REQUIRE(std::abs(s.energy(X1, t0) - E0) <= kFitCandidateGap * E0);
+    scratch.fitWon = false;
+    scratch.fitSkipped = 0;
+    for (int i = 1; i <= kFitRetry; ++i) {
+      localStep(*s.model, s.reg(), LocalStep::Exact, X1, &t0, t, scratch, E0);
+      CHECK(scratch.fitSkipped == i);
+    }
+    localStep(*s.model, s.reg(), LocalStep::Exact, X1, &t0, t, scratch, E0);
+    CHECK(scratch.fitSkipped == 0);  // tried
+
+    // The whole bar turned by a quarter: far from the reference, so the fit is tried even
+    // right after a loss, and it wins: the step ends where the step without a reference does.
+    const Eigen::MatrixXd X2 = X0 * rotation(s.disc->dim(), 0.5 * M_PI).transpose();
+    REQUIRE(std::abs(s.energy(X2, t0) - E0) > kFitCandidateGap * E0);
+    scratch.fitWon = false;
+    scratch.fitSkipped = 0;
+    const double turned = localStep(*s.model, s.reg(), LocalStep::Exact, X2, &t0, t, scratch, E0);
+    CHECK(scratch.fitWon);
+    LocalStepScratch fresh;
+    Stacked t2;
+    CHECK(turned == localStep(*s.model, s.reg(), LocalStep::Exact, X2, &t0, t2, fresh));
+    // A rigid turn: one step from the fit comes back near the settled energy of the unturned
+    // shape, which the stale targets are far above.
+    CHECK(turned < E0 * (1 + kFitCandidateGap));
+  }
+}
