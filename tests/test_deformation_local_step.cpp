@@ -36,6 +36,10 @@ struct Setup {
     system->setWeights(makeRegularizationWeights(*disc, Regularization::Uniform, 0.5));
   }
   const Regularizer& reg() const { return system->regularizer(); }
+  double step(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
+              LocalStepScratch& scratch, double reference = 0.0) const {
+    return localStep(*model, reg(), LocalStep::Exact, X, previous, t, scratch, reference);
+  }
   double energy(const Eigen::MatrixXd& X, const Stacked& t) const {
     Stacked F;
     model->gradients(X, F);
@@ -55,12 +59,12 @@ TEST_CASE(
     const Eigen::MatrixXd X0 = bend(s.disc->rest(), 0.6), X1 = bend(s.disc->rest(), 0.65);
     LocalStepScratch scratch;
     Stacked t0, t;
-    const double E0 = localStep(*s.model, s.reg(), LocalStep::Exact, X0, nullptr, t0, scratch);
+    const double E0 = s.step(X0, nullptr, t0, scratch);
     const double kept = s.energy(X1, t0);
     for (bool fitWon : {true, false}) {
       scratch.fitWon = fitWon;
       scratch.fitSkipped = 0;
-      const double E = localStep(*s.model, s.reg(), LocalStep::Exact, X1, &t0, t, scratch, E0);
+      const double E = s.step(X1, &t0, t, scratch, E0);
       CHECK(E <= kept * (1 + 1e-14));
       CHECK(E == Approx(s.energy(X1, t)).epsilon(1e-12));
     }
@@ -77,19 +81,18 @@ TEST_CASE(
     const Eigen::MatrixXd X0 = bend(s.disc->rest(), 0.6);
     LocalStepScratch scratch;
     Stacked t0, t;
-    double E0 = localStep(*s.model, s.reg(), LocalStep::Exact, X0, nullptr, t0, scratch);
-    for (int i = 0; i < 10; ++i)
-      E0 = localStep(*s.model, s.reg(), LocalStep::Exact, X0, &t0, t0, scratch);
+    double E0 = s.step(X0, nullptr, t0, scratch);
+    for (int i = 0; i < 10; ++i) E0 = s.step(X0, &t0, t0, scratch);
     // A small change of the shape: the previous targets stay within the gap of E0.
     const Eigen::MatrixXd X1 = bend(s.disc->rest(), 0.601);
     REQUIRE(std::abs(s.energy(X1, t0) - E0) <= kFitCandidateGap * E0);
     scratch.fitWon = false;
     scratch.fitSkipped = 0;
     for (int i = 1; i <= kFitRetry; ++i) {
-      localStep(*s.model, s.reg(), LocalStep::Exact, X1, &t0, t, scratch, E0);
+      s.step(X1, &t0, t, scratch, E0);
       CHECK(scratch.fitSkipped == i);
     }
-    localStep(*s.model, s.reg(), LocalStep::Exact, X1, &t0, t, scratch, E0);
+    s.step(X1, &t0, t, scratch, E0);
     CHECK(scratch.fitSkipped == 0);  // tried
 
     // The whole bar turned by a quarter: far from the reference, so the fit is tried even
@@ -98,11 +101,11 @@ TEST_CASE(
     REQUIRE(std::abs(s.energy(X2, t0) - E0) > kFitCandidateGap * E0);
     scratch.fitWon = false;
     scratch.fitSkipped = 0;
-    const double turned = localStep(*s.model, s.reg(), LocalStep::Exact, X2, &t0, t, scratch, E0);
+    const double turned = s.step(X2, &t0, t, scratch, E0);
     CHECK(scratch.fitWon);
     LocalStepScratch fresh;
     Stacked t2;
-    CHECK(turned == localStep(*s.model, s.reg(), LocalStep::Exact, X2, &t0, t2, fresh));
+    CHECK(turned == s.step(X2, &t0, t2, fresh));
     // A rigid turn: one step from the fit comes back near the settled energy of the unturned
     // shape, which the stale targets are far above.
     CHECK(turned < E0 * (1 + kFitCandidateGap));
