@@ -56,7 +56,7 @@ TEST_CASE(
   for (MeshKind kind : kAllKinds) {
     INFO(toString(kind));
     Setup s(kind);
-    const Eigen::MatrixXd X0 = bend(s.disc->rest(), 0.6), X1 = bend(s.disc->rest(), 0.65);
+    const Eigen::MatrixXd X0 = bend(s.disc->rest(), 0.6), X1 = bend(s.disc->rest(), 0.601);
     LocalStepScratch scratch;
     Stacked t0, t;
     const double E0 = s.step(X0, nullptr, t0, scratch);
@@ -65,6 +65,7 @@ TEST_CASE(
       scratch.fitWon = fitWon;
       scratch.fitSkipped = 0;
       const double E = s.step(X1, &t0, t, scratch, E0);
+      CHECK(scratch.fitSkipped == (fitWon ? 0 : 1));  // both ways are taken
       CHECK(E <= kept * (1 + 1e-14));
       CHECK(E == Approx(s.energy(X1, t)).epsilon(1e-12));
     }
