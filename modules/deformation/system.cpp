@@ -12,9 +12,9 @@ namespace diffreg {
 
 namespace {
 
-constexpr int kColourGrain =
-    256;                      // a scatter colour's elements per chunk (a tenth to a
-                              // thirtieth of the elements: small chunks keep both threads busy)
+// A scatter colour's elements per chunk (a colour holds a tenth to a thirtieth of the
+// elements: small chunks keep both threads busy).
+constexpr int kColourGrain = 256;
 constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
 
 // Adds the shares L_k^T tau_k of the elements `ids[0..count)` to the rows of b, with
@@ -216,14 +216,11 @@ void RegularizedSystem::assemble() const {
         entry(ids[i], ids[j]) += w * sum;
       }
   }
-  if (!couplings_) {
-    valuesDirty_ = false;
-    return;
-  }
 
-  // Facets: ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) over the union of their unknowns.
+  // Facets: ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) over the union of their unknowns (none
+  // without the couplings in the pattern, where every facet weight is 0).
   std::vector<double> M(static_cast<size_t>(r) * 2 * u);  // r x U, column-major
-  for (size_t f = 0; f < facets.size(); ++f) {
+  for (size_t f = 0; couplings_ && f < facets.size(); ++f) {
     const double w = facetWeight(static_cast<Eigen::Index>(f));
     if (w == 0.0) continue;
     const Facet& fc = facets[f];
