@@ -748,6 +748,16 @@ int main(int argc, char** argv) {
         if (i + 1 >= argc) throw diffreg::InvalidParameter("option " + arg + " needs a value");
         return argv[++i];
       };
+      // The option's value as an integer in [1, most].
+      auto intValue = [&](long most) {
+        const std::string v = value();
+        char* end = nullptr;
+        const long n = std::strtol(v.c_str(), &end, 10);
+        if (*end || n < 1 || n > most)
+          throw diffreg::InvalidParameter(arg + " must be an integer in [1, " +
+                                          std::to_string(most) + "], got '" + v + "'");
+        return static_cast<int>(n);
+      };
       if (arg == "--help" || arg == "-h") {
         printUsage(std::cout);
         return 0;
@@ -758,22 +768,10 @@ int main(int argc, char** argv) {
       } else if (arg == "--quick") {
         options.quick = true;
       } else if (arg == "--repeats") {
-        const std::string v = value();
-        char* end = nullptr;
-        const long n = std::strtol(v.c_str(), &end, 10);
-        if (*end || n < 1 || n > 1000)
-          throw diffreg::InvalidParameter("--repeats must be an integer in [1, 1000], got '" + v +
-                                          "'");
-        options.repeats = static_cast<int>(n);
+        options.repeats = intValue(1000);
         repeatsGiven = true;
       } else if (arg == "--plain-cap") {
-        const std::string v = value();
-        char* end = nullptr;
-        const long n = std::strtol(v.c_str(), &end, 10);
-        if (*end || n < 1 || n > 1000000)
-          throw diffreg::InvalidParameter("--plain-cap must be an integer in [1, 1000000], got '" +
-                                          v + "'");
-        options.plainCap = static_cast<int>(n);
+        options.plainCap = intValue(1000000);
       } else if (arg == "--filter") {
         options.filter = value();
       } else if (arg == "--meshes") {
