@@ -86,17 +86,61 @@ TetMesh readTetgen(const std::string& path) {
 // ---------------------------------------------------------------------------------------
 // Writing
 
-/// `v` in the shortest form that reads back as the same double (at most 17 digits).
-std::string exact(double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
-}
+/// Text output of the writers: numbers formatted by std::to_chars straight into a buffer that
+/// goes to the stream in large pieces (a stream's own formatting, and a string per number, cost
+/// several times more on a large mesh). Doubles in the shortest form that reads back as the
+/// same double (at most 17 digits); integers in decimal.
+class TextOut {
+ public:
+  explicit TextOut(std::ostream& out) : out_(out) { buffer_.reserve(kChunk + kRoom); }
+  TextOut(const TextOut&) = delete;
+  TextOut& operator=(const TextOut&) = delete;
+  ~TextOut() { flush(); }
 
-void writeMedit(std::ostream& out, const TetMesh& tet) {
+  TextOut& operator<<(double v) { return number(v); }
+  TextOut& operator<<(int v) { return number(v); }
+  TextOut& operator<<(long v) { return number(v); }
+  TextOut& operator<<(long long v) { return number(v); }
+  TextOut& operator<<(unsigned long v) { return number(v); }
+  TextOut& operator<<(char c) {
+    buffer_.push_back(c);
+    return spill();
+  }
+  TextOut& operator<<(std::string_view text) {
+    buffer_.append(text);
+    return spill();
+  }
+  TextOut& operator<<(const char* text) { return *this << std::string_view(text); }
+
+  void flush() {
+    out_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+    buffer_.clear();
+  }
+
+ private:
+  static constexpr size_t kChunk = 1 << 16, kRoom = 32;  // a number takes at most 24 chars
+
+  template <typename T>
+  TextOut& number(T v) {
+    const size_t used = buffer_.size();
+    buffer_.resize(used + kRoom);
+    const auto r = std::to_chars(buffer_.data() + used, buffer_.data() + used + kRoom, v);
+    buffer_.resize(static_cast<size_t>(r.ptr - buffer_.data()));
+    return spill();
+  }
+  TextOut& spill() {
+    if (buffer_.size() >= kChunk) flush();
+    return *this;
+  }
+
+  std::ostream& out_;
+  std::string buffer_;
+};
+
+void writeMedit(std::ostream& stream, const TetMesh& tet) {
+  TextOut out(stream);
   out << "MeshVersionFormatted 2\nDimension 3\n\nVertices\n" << tet.points.size() << "\n";
-  for (const auto& p : tet.points)
-    out << exact(p[0]) << ' ' << exact(p[1]) << ' ' << exact(p[2]) << " 0\n";
+  for (const auto& p : tet.points) out << p[0] << ' ' << p[1] << ' ' << p[2] << " 0\n";
   out << "\nTetrahedra\n" << tet.tets.size() << "\n";
   for (const auto& t : tet.tets) {
     out << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << ' ' << t[3] + 1 << " 0\n";
@@ -104,14 +148,15 @@ void writeMedit(std::ostream& out, const TetMesh& tet) {
   out << "\nEnd\n";
 }
 
-void writePoint(std::ostream& out, const Eigen::MatrixXd& points, int i) {
-  out << exact(points(i, 0)) << ' ' << exact(points(i, 1)) << ' ' << exact(points(i, 2));
+void writePoint(TextOut& out, const Eigen::MatrixXd& points, int i) {
+  out << points(i, 0) << ' ' << points(i, 1) << ' ' << points(i, 2);
 }
 
 /// ASCII PLY: points (double), optional vertex quality (double) with viridis colours, faces
 /// with optional face quality (double).
-void writePly(std::ostream& out, const Eigen::MatrixXd& points, const Eigen::MatrixXi& faces,
+void writePly(std::ostream& stream, const Eigen::MatrixXd& points, const Eigen::MatrixXi& faces,
               const Eigen::VectorXd* vquality, const Eigen::VectorXd* fquality, bool colors) {
+  TextOut out(stream);
   colors = colors && vquality != nullptr;
   out << "ply\nformat ascii 1.0\ncomment diffreg\n";
   out << "element vertex " << points.rows() << "\n";
@@ -123,7 +168,7 @@ void writePly(std::ostream& out, const Eigen::MatrixXd& points, const Eigen::Mat
   out << "end_header\n";
   for (int i = 0; i < points.rows(); ++i) {
     writePoint(out, points, i);
-    if (vquality) out << ' ' << exact((*vquality)[i]);
+    if (vquality) out << ' ' << (*vquality)[i];
     if (colors) {
       const auto rgb = viridis((*vquality)[i]);
       out << ' ' << int(rgb[0]) << ' ' << int(rgb[1]) << ' ' << int(rgb[2]);
@@ -132,13 +177,14 @@ void writePly(std::ostream& out, const Eigen::MatrixXd& points, const Eigen::Mat
   }
   for (int k = 0; k < faces.rows(); ++k) {
     out << "3 " << faces(k, 0) << ' ' << faces(k, 1) << ' ' << faces(k, 2);
-    if (fquality) out << ' ' << exact((*fquality)[k]);
+    if (fquality) out << ' ' << (*fquality)[k];
     out << '\n';
   }
 }
 
 /// OBJ (1-based faces) or OFF, with exact coordinates.
-void writeObjOff(std::ostream& out, const Mesh& mesh, bool obj) {
+void writeObjOff(std::ostream& stream, const Mesh& mesh, bool obj) {
+  TextOut out(stream);
   const Eigen::MatrixXd p = mesh.positions();
   const Eigen::MatrixXi f = mesh.elements();
   if (!obj) out << "OFF\n" << p.rows() << ' ' << f.rows() << " 0\n";
@@ -202,10 +248,13 @@ void validateMesh(const Mesh& mesh, const std::string& path) {
   const Eigen::MatrixXi e = mesh.elements();
   const int s = mesh.elementSize();
   for (int k = 0; k < m; ++k) {
-    const std::string name = path + ": " + element + " " + std::to_string(k) + " (0-based)";
+    // Spelled out only for an error: every face of a large mesh is checked.
+    const auto name = [&] {
+      return path + ": " + element + " " + std::to_string(k) + " (0-based)";
+    };
     for (int j = 0; j < s; ++j) {
       if (e(k, j) < 0 || e(k, j) >= n) {
-        throw InvalidMesh(name + " has vertex index " + std::to_string(e(k, j)) +
+        throw InvalidMesh(name() + " has vertex index " + std::to_string(e(k, j)) +
                           " out of range 0.." + std::to_string(n - 1));
       }
     }
@@ -219,15 +268,15 @@ void validateMesh(const Mesh& mesh, const std::string& path) {
     if (s == 3) {
       const double area = 0.5 * (b - a).cross(c - a).norm();
       if (!(area > 1e-14 * h * h)) {
-        throw InvalidMesh(name + " is degenerate (area " + num(area) + ")");
+        throw InvalidMesh(name() + " is degenerate (area " + num(area) + ")");
       }
     } else {
       const double vol = det3(a, b, c, p.row(e(k, 3)).transpose()) / 6.0;
       if (!(std::abs(vol) > 1e-14 * h * h * h)) {
-        throw InvalidMesh(name + " is degenerate (volume " + num(vol) + ")");
+        throw InvalidMesh(name() + " is degenerate (volume " + num(vol) + ")");
       }
       if (vol < 0.0) {
-        throw InvalidMesh(name + " is inverted (volume " + num(vol) + ")");
+        throw InvalidMesh(name() + " is inverted (volume " + num(vol) + ")");
       }
     }
   }

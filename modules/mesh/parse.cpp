@@ -947,19 +947,20 @@ TriMesh buildTriMesh(const RawMesh& raw, const std::string& source) {
   std::vector<OpenMesh::VertexHandle> corners(3);
   for (size_t k = 0; k < raw.faces.size(); ++k) {
     const RawFace& f = raw.faces[k];
-    std::vector<std::array<long long, 3>> tris;
-    if (f.ids.size() == 3) {
-      tris.push_back({f.ids[0], f.ids[1], f.ids[2]});
+    if (f.ids.size() == 3) {  // the common case, without a list of triangles
+      for (int j = 0; j < 3; ++j) corners[j] = OpenMesh::VertexHandle(static_cast<int>(f.ids[j]));
+      importer.add_face(corners);
     } else {
       const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") +
                                 ": face " + std::to_string(k + raw.base);
-      tris = triangulatePolygon(raw.points, f.ids, where);
+      const std::vector<std::array<long long, 3>> tris =
+          triangulatePolygon(raw.points, f.ids, where);
       ++polygons;
       triangles += static_cast<int>(tris.size());
-    }
-    for (const auto& t : tris) {
-      for (int j = 0; j < 3; ++j) corners[j] = OpenMesh::VertexHandle(static_cast<int>(t[j]));
-      importer.add_face(corners);
+      for (const auto& t : tris) {
+        for (int j = 0; j < 3; ++j) corners[j] = OpenMesh::VertexHandle(static_cast<int>(t[j]));
+        importer.add_face(corners);
+      }
     }
     // Each split face copies its vertices: a file of repeated faces would grow ~100 bytes of
     // memory per byte read. A few non-manifold faces are common, a mesh made of them is not.
