@@ -8,6 +8,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <random>
+
 using namespace diffreg;
 using namespace diffreg::testing;
 
@@ -139,6 +141,40 @@ TEST_CASE("the total energy is unchanged when the mesh and its motion are scaled
       const double Ea = a.energy(a.residuals(X), w), Eb = b.energy(b.residuals(100.0 * X), wBig);
       CHECK(Ea > 0.0);
       CHECK(Eb == Approx(Ea).epsilon(1e-9));
+    }
+  }
+}
+
+TEST_CASE("each energy's batched 3D fit is its fit of each element", "[deformation][energy]") {
+  // EnergyModel::fitBatch, which the exact local step calls for a few elements at a time:
+  // ARAP and ASAP give their own loops; on surfaces and tets, a degenerate C included (the SVD
+  // fallbacks). Both must be the element's fit().
+  std::mt19937 rng(29);
+  std::normal_distribution<double> normal;
+  for (Energy energy : kAllEnergies) {
+    if (!isIterative(energy, MeshKind::Surface) && !isIterative(energy, MeshKind::Tet)) continue;
+    const EnergyModel& model = energyModel(energy);
+    for (bool surface : {true, false}) {
+      Eigen::Matrix3d C[kFitBatch];
+      Eigen::Vector3d n[kFitBatch];
+      const Eigen::Vector3d* normalOf[kFitBatch];
+      double weight[kFitBatch], stored[kFitBatch][9];
+      double* out[kFitBatch];
+      for (int i = 0; i < kFitBatch; ++i) {
+        n[i] = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+        for (int j = 0; j < 9; ++j) C[i](j) = normal(rng);
+        if (i == 3) C[i].col(1) = 2.0 * C[i].col(0);  // rank 2 (and rank 1 in the plane)
+        if (i == 3) C[i].col(2) = -C[i].col(0);
+        weight[i] = 0.5 + i % 3;
+        normalOf[i] = surface ? &n[i] : nullptr;
+        out[i] = stored[i];
+      }
+      model.fitBatch(kFitBatch, C, weight, normalOf, out);
+      for (int i = 0; i < kFitBatch; ++i) {
+        INFO(toString(energy) << (surface ? " surface" : " tet") << " element " << i);
+        const Eigen::Matrix3d T = model.fit(C[i], weight[i], normalOf[i]);
+        CHECK((Eigen::Map<const Eigen::Matrix3d>(stored[i]) - T).cwiseAbs().maxCoeff() < 1e-12);
+      }
     }
   }
 }

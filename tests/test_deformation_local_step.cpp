@@ -112,3 +112,51 @@ TEST_CASE(
     CHECK(turned < E0 * (1 + kFitCandidateGap));
   }
 }
+
+TEST_CASE(
+    "settled exact targets are each the block minimizer of eq. 3, element by element "
+    "(the sweeps fit elements in batches)",
+    "[deformation][local_step]") {
+  // T_k = fit(C_k, weight_k) with C_k = w_k F_k + sum_l w_kl (F_k - F_l + T_l) and weight_k =
+  // w_k + sum_l w_kl (local_step.h), evaluated here one element at a time with
+  // EnergyModel::fit, independently of the batched sweeps.
+  for (MeshKind kind : kAllKinds) {
+    INFO(toString(kind));
+    Setup s(kind);
+    const Eigen::MatrixXd X = bend(s.disc->rest(), 0.6);
+    LocalStepScratch scratch;
+    Stacked t;
+    s.step(X, nullptr, t, scratch);
+    for (int i = 0; i < 300; ++i) s.step(X, &t, t, scratch);
+    const Stacked& F = scratch.F;
+    const int d = s.disc->dim();
+    const EnergyModel& arap = energyModel(Energy::Arap);
+    const Regularizer& reg = s.reg();
+    double worst = 0.0;
+    for (int k = 0; k < s.disc->numElements(); ++k) {
+      // Stored blocks are F_k^T and T_k^T.
+      const auto block = [&](const Stacked& S, int e) {
+        return Eigen::MatrixXd(S.block(static_cast<Eigen::Index>(e) * d, 0, d, d).transpose());
+      };
+      const Eigen::MatrixXd Fk = block(F, k);
+      Eigen::MatrixXd C = reg.elementWeight()(k) * Fk;
+      double weight = reg.elementWeight()(k);
+      for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
+        const double w = reg.neighbourWeight(g);
+        C += w * (Fk - block(F, reg.neighbour(g)) + block(t, reg.neighbour(g)));
+        weight += w;
+      }
+      Eigen::MatrixXd fitted;
+      if (d == 2) {
+        fitted = arap.fit(Eigen::Matrix2d(C), weight);
+      } else if (kind == MeshKind::Surface) {
+        const Eigen::Vector3d n = s.disc->normals().row(k).transpose();
+        fitted = arap.fit(Eigen::Matrix3d(C), weight, &n);
+      } else {
+        fitted = arap.fit(Eigen::Matrix3d(C), weight, nullptr);
+      }
+      worst = std::max(worst, (fitted - block(t, k)).cwiseAbs().maxCoeff());
+    }
+    CHECK(worst < 1e-8);
+  }
+}

@@ -90,10 +90,15 @@ TEST_CASE("the tangent-plane closed form is the SVD rotation restricted to the t
     if (trial == 1) n = Eigen::Vector3d(0, 0, 1);
     const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - n * n.transpose();
     const Eigen::Matrix3d F = randomMatrix<3>(rng) * P;  // F n = 0, as for surface elements
-    Eigen::Matrix3d T;
+    // T = Q E^T for the polar factor Q of F E in the tangent frame E of n.
+    const Matrix32 E = tangentFrame(n);
+    Matrix32 Q;
     double trace = 0.0;
-    if (!tangentRotation(F, n, T, trace)) continue;
+    if (!tangentPolar(F * E, Q, trace)) continue;
     ++accepted;
+    const Eigen::Matrix3d T = Q * E.transpose();
+    CHECK((E.transpose() * E - Eigen::Matrix2d::Identity()).cwiseAbs().maxCoeff() < 1e-14);
+    CHECK((E.transpose() * n).norm() < 1e-14);
     Eigen::Vector3d sigma;
     const Eigen::Matrix3d R = closestRotation<3>(F, sigma);
     const Eigen::Matrix3d S = R - (R * n) * n.transpose();
@@ -106,9 +111,16 @@ TEST_CASE("the tangent-plane closed form is the SVD rotation restricted to the t
   const Eigen::Vector3d n(0, 0, 1);
   Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
   F(0, 0) = 1.0;
-  Eigen::Matrix3d T = Eigen::Matrix3d::Zero();
+  Matrix32 Q;
   double trace = 0.0;
-  CHECK_FALSE(tangentRotation(F, n, T, trace));
+  CHECK_FALSE(tangentPolar(F * tangentFrame(n), Q, trace));
+  // ... whose thin SVD form is still a pair of orthonormal columns, the best one for F.
+  Q = tangentPolarSvd(F * tangentFrame(n), trace);
+  CHECK((Q.transpose() * Q - Eigen::Matrix2d::Identity()).cwiseAbs().maxCoeff() < 1e-12);
+  CHECK(trace == Approx(1.0));
+  const Eigen::Matrix3d T = rotationTarget(F, &n, trace);
+  CHECK(T(0, 0) == Approx(1.0));
+  CHECK((T * n).norm() < 1e-12);
 }
 
 TEST_CASE("a session without reserved couplings gives the same deformation",
@@ -181,15 +193,14 @@ TEST_CASE("solveFrom continues from a given shape: a drag needs few iterations",
     // iterations than from the rest shape (or the ASAP guess). (Both are minima; ARAP can have
     // several, so the energies need not be equal.)
     s.setTargets(liftFarEnd(targets, 0.05));
-    const DeformationResult warm = s.solveFrom(settled.positions, kDefaultIterations,
-                                               kDefaultTolerance);
+    const DeformationResult warm =
+        s.solveFrom(settled.positions, kDefaultIterations, kDefaultTolerance);
     const DeformationResult fresh = s.solve(kDefaultIterations, kDefaultTolerance);
     INFO("warm " << warm.iterations << " iterations, fresh " << fresh.iterations);
     CHECK(warm.converged);
     CHECK(fresh.converged);
     CHECK(warm.iterations < fresh.iterations);
-    CHECK_THROWS_AS(s.solveFrom(Eigen::MatrixXd::Zero(3, disc->dim()), 10, 0.0),
-                    InvalidParameter);
+    CHECK_THROWS_AS(s.solveFrom(Eigen::MatrixXd::Zero(3, disc->dim()), 10, 0.0), InvalidParameter);
     Eigen::MatrixXd bad = settled.positions;
     bad(0, 0) = std::nan("");
     CHECK_THROWS_AS(s.solveFrom(bad, 10, 0.0), InvalidParameter);

@@ -27,7 +27,6 @@ const std::array<EnergyEntry, 4> kEnergies = {{
     {Energy::Dirichlet, dirichletEnergy},
 }};
 
-
 }  // namespace
 
 const EnergyModel& energyModel(Energy energy) {
@@ -54,6 +53,12 @@ Eigen::Matrix2d EnergyModel::fit(const Eigen::Matrix2d&, double) const {
 
 Eigen::Matrix3d EnergyModel::fit(const Eigen::Matrix3d&, double, const Eigen::Vector3d*) const {
   throw InvalidParameter(std::string("energy: ") + toString(id()) + " has no local fit in 3D");
+}
+
+void EnergyModel::fitBatch(int count, const Eigen::Matrix3d* C, const double* weight,
+                           const Eigen::Vector3d* const* normal, double* const* T) const {
+  for (int i = 0; i < count; ++i)
+    Eigen::Map<Eigen::Matrix3d>{T[i]} = fit(C[i], weight[i], normal[i]);
 }
 
 }  // namespace diffreg

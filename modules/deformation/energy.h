@@ -54,6 +54,12 @@ class EnergyModel {
   virtual Eigen::Matrix2d fit(const Eigen::Matrix2d& C, double weight) const;
   virtual Eigen::Matrix3d fit(const Eigen::Matrix3d& C, double weight,
                               const Eigen::Vector3d* normal) const;
+  /// The 3D fit of `count` elements at once: T_i = fit(C[i], weight[i], normal[i]), written
+  /// column-major to the 9 doubles at T[i] (the stored block T_i^T, row-major). The exact local
+  /// step fits a few elements per call, so that the square roots and divisions of a closed
+  /// form overlap from one element to the next. The default calls fit() for each.
+  virtual void fitBatch(int count, const Eigen::Matrix3d* C, const double* weight,
+                        const Eigen::Vector3d* const* normal, double* const* T) const;
 };
 
 /// The model of an energy (a static instance).

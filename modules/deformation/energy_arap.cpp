@@ -22,6 +22,13 @@ class Arap final : public EnergyModel {
     double trace = 0.0;
     return rotationTarget(C, normal, trace);
   }
+  void fitBatch(int count, const Eigen::Matrix3d* C, const double*,
+                const Eigen::Vector3d* const* normal, double* const* T) const override {
+    for (int i = 0; i < count; ++i) {
+      double trace = 0.0;
+      rotationTarget(C[i], normal[i], trace, T[i]);
+    }
+  }
 };
 
 }  // namespace

@@ -23,14 +23,23 @@ class Asap final : public EnergyModel {
     J << 0, -1, 1, 0;
     return {vec2(Eigen::Matrix2d::Identity()), vec2(J)};
   }
-  // min over s, R of weight s^2 |R|^2 - 2 s tr(R^T C): R the rotation fit to C and
-  // s = tr(R^T C) / (weight |R|^2), |R|^2 = 2 on surfaces (tangent plane), 3 on tets.
   Eigen::Matrix3d fit(const Eigen::Matrix3d& C, double weight,
                       const Eigen::Vector3d* normal) const override {
-    double trace = 0.0;
-    const Eigen::Matrix3d R = rotationTarget(C, normal, trace);
-    const double norm2 = normal ? 2.0 : 3.0;
-    return R * (trace / (weight * norm2));
+    Eigen::Matrix3d T;
+    double* out = T.data();
+    fitBatch(1, &C, &weight, &normal, &out);
+    return T;
+  }
+  // min over s, R of weight s^2 |R|^2 - 2 s tr(R^T C): R the rotation fit to C and
+  // s = tr(R^T C) / (weight |R|^2), |R|^2 = 2 on surfaces (tangent plane), 3 on tets.
+  void fitBatch(int count, const Eigen::Matrix3d* C, const double* weight,
+                const Eigen::Vector3d* const* normal, double* const* T) const override {
+    for (int i = 0; i < count; ++i) {
+      double trace = 0.0;
+      rotationTarget(C[i], normal[i], trace, T[i]);
+      const double scale = trace / (weight[i] * (normal[i] ? 2.0 : 3.0));
+      for (int j = 0; j < 9; ++j) T[i][j] *= scale;
+    }
   }
 };
 

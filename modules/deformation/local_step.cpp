@@ -16,34 +16,53 @@ constexpr int kWeakSweeps = 16;  // sweeps over the weakly anchored elements per
 constexpr int kWeakRound = 8;    // of them between two turns
 constexpr int kWeakGrain = 128;  // their colours are small: chunks that keep both threads busy
 
+// C_k^T (row-major, in Ct) and its weight for element k (local_step.h).
+template <int D>
+double blend(const Regularizer& reg, int k, const Stacked& F, const Stacked& t, double* Ct) {
+  constexpr int dd = D * D;
+  const double* Fk = F.data() + static_cast<Eigen::Index>(k) * dd;
+  const double wk = reg.elementWeight()(k);
+  double weight = wk;
+  for (int j = 0; j < dd; ++j) Ct[j] = wk * Fk[j];
+  for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
+    const double w = reg.neighbourWeight(g);
+    if (w == 0.0) continue;
+    weight += w;
+    const Eigen::Index other = static_cast<Eigen::Index>(reg.neighbour(g)) * dd;
+    const double* Fl = F.data() + other;
+    const double* Tl = t.data() + other;
+    for (int j = 0; j < dd; ++j) Ct[j] += w * (Fk[j] - Fl[j] + Tl[j]);
+  }
+  if (!(weight > 0.0)) {  // no energy on this element: any target; keep the plain fit
+    weight = 1.0;
+    for (int j = 0; j < dd; ++j) Ct[j] = Fk[j];
+  }
+  return weight;
+}
+
 // One colour of the exact sweep: T_k = fit(C_k, weight) for its elements, in place in t (F and
-// t hold row-major D x D blocks F_k^T and T_k^T).
+// t hold row-major D x D blocks F_k^T and T_k^T). In 3D kFitBatch elements at a time: their C_k
+// first, then one fitElements call (a row-major C^T is the column-major C).
 template <int D>
 void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::vector<int>& ids,
                  const Stacked& F, Stacked& t, int grain = kGrain) {
-  constexpr int dd = D * D;
-  const Eigen::VectorXd& wk = reg.elementWeight();
   parallel::forChunks(static_cast<int>(ids.size()), grain, [&](int, int begin, int end) {
-    double Ct[9];
-    for (int i = begin; i < end; ++i) {
-      const int k = ids[static_cast<size_t>(i)];
-      const double* Fk = F.data() + static_cast<Eigen::Index>(k) * dd;
-      double weight = wk(k);
-      for (int j = 0; j < dd; ++j) Ct[j] = wk(k) * Fk[j];
-      for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
-        const double w = reg.neighbourWeight(g);
-        if (w == 0.0) continue;
-        weight += w;
-        const Eigen::Index other = static_cast<Eigen::Index>(reg.neighbour(g)) * dd;
-        const double* Fl = F.data() + other;
-        const double* Tl = t.data() + other;
-        for (int j = 0; j < dd; ++j) Ct[j] += w * (Fk[j] - Fl[j] + Tl[j]);
+    if constexpr (D == 3) {
+      Eigen::Matrix3d C[kFitBatch];
+      double weight[kFitBatch];
+      for (int first = begin; first < end; first += kFitBatch) {
+        const int count = std::min(kFitBatch, end - first);
+        const int* batch = ids.data() + first;
+        for (int i = 0; i < count; ++i) weight[i] = blend<3>(reg, batch[i], F, t, C[i].data());
+        model.fitElements(count, batch, C, weight, t);
       }
-      if (!(weight > 0.0)) {  // no energy on this element: any target; keep the plain fit
-        weight = 1.0;
-        for (int j = 0; j < dd; ++j) Ct[j] = Fk[j];
+    } else {
+      double Ct[D * D];
+      for (int i = begin; i < end; ++i) {
+        const int k = ids[static_cast<size_t>(i)];
+        const double weight = blend<D>(reg, k, F, t, Ct);
+        model.fitElement(Ct, weight, k, t.data() + static_cast<Eigen::Index>(k) * D * D);
       }
-      model.fitElement(Ct, weight, k, t.data() + static_cast<Eigen::Index>(k) * dd);
     }
   });
 }

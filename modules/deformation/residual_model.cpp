@@ -3,6 +3,7 @@
 #include <diffreg/deformation/parallel.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -173,6 +174,21 @@ void ResidualModel::fitElement(const double* Ct, double weight, int k, double* T
   out = fit3(C, weight, k).transpose();
 }
 
+void ResidualModel::fitElements(int count, const int* ids, const Eigen::Matrix3d* C,
+                                const double* weight, Stacked& t) const {
+  Eigen::Vector3d normal[kFitBatch];
+  const Eigen::Vector3d* normalOf[kFitBatch];
+  double* out[kFitBatch];
+  const bool surface = disc_.kind() == MeshKind::Surface;
+  for (int i = 0; i < count; ++i) {
+    const int k = ids[i];
+    if (surface) normal[i] = disc_.normals().row(k).transpose();
+    normalOf[i] = surface ? &normal[i] : nullptr;
+    out[i] = t.data() + static_cast<Eigen::Index>(k) * 9;
+  }
+  energy_.fitBatch(count, C, weight, normalOf, out);
+}
+
 Eigen::Matrix3d ResidualModel::fit3(const Eigen::Matrix3d& C, double weight, int k) const {
   if (disc_.kind() != MeshKind::Surface) return energy_.fit(C, weight, nullptr);
   const Eigen::Vector3d n = disc_.normals().row(k).transpose();
@@ -186,17 +202,28 @@ void ResidualModel::fitTargets(const Stacked& F, Stacked& t) const {
     t = fixedTargets_;
     return;
   }
-  // Block k of F is F_k^T, so C = F_k is its transpose; the target's block is T^T.
+  // Block k of F is F_k^T, so C = F_k is its transpose; the target's block is T^T. In 3D
+  // kFitBatch elements per fitElements call (a row-major F_k^T is the column-major F_k).
   parallel::forChunks(disc_.numElements(), kGrain, [&](int, int begin, int end) {
-    for (int k = begin; k < end; ++k) {
-      if (dim_ == 2) {
+    if (dim_ == 2) {
+      for (int k = begin; k < end; ++k) {
         const Eigen::Index row = static_cast<Eigen::Index>(k) * 2;
         const Eigen::Matrix2d C = F.block<2, 2>(row, 0).transpose();
         t.block<2, 2>(row, 0) = energy_.fit(C, 1.0).transpose();
-        continue;
       }
-      const Eigen::Index row = static_cast<Eigen::Index>(k) * 3;
-      t.block<3, 3>(row, 0) = fit3(F.block<3, 3>(row, 0).transpose(), 1.0, k).transpose();
+      return;
+    }
+    Eigen::Matrix3d C[kFitBatch];
+    int ids[kFitBatch];
+    double weight[kFitBatch];
+    std::fill_n(weight, kFitBatch, 1.0);
+    for (int first = begin; first < end; first += kFitBatch) {
+      const int count = std::min(kFitBatch, end - first);
+      for (int i = 0; i < count; ++i) {
+        ids[i] = first + i;
+        C[i] = Eigen::Map<const Eigen::Matrix3d>(F.data() + static_cast<Eigen::Index>(ids[i]) * 9);
+      }
+      fitElements(count, ids, C, weight, t);
     }
   });
 }

@@ -16,6 +16,9 @@ namespace diffreg {
 /// step's sweeps read an element and its neighbours a few cache lines each, in place.
 using Stacked = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
+/// Elements per ResidualModel::fitElements call.
+constexpr int kFitBatch = 16;
+
 class ResidualModel {
  public:
   /// Precomputes L_k for every element (O(m) small dense blocks) and, for the linear energies,
@@ -66,6 +69,10 @@ class ResidualModel {
   /// weight (EnergyModel::fit), written row-major into `Tt` (d x d: block k of the stacked
   /// targets). Iterative energies only.
   void fitElement(const double* Ct, double weight, int k, double* Tt) const;
+  /// fitElement for the elements ids[0..count) of a 3D mesh at once (count <= kFitBatch), from
+  /// their C_k (d x d) into their blocks of the stacked targets `t` (EnergyModel::fitBatch).
+  void fitElements(int count, const int* ids, const Eigen::Matrix3d* C, const double* weight,
+                   Stacked& t) const;
   /// Every element's target fitted to its own F_k alone (weight 1, in parallel): the local step
   /// of plain local/global and of `local_step=reference`; the constant targets of the linear
   /// energies. `t` is resized only when its shape is wrong.
@@ -99,8 +106,8 @@ class ResidualModel {
   const EnergyModel& energy_;
   bool coupled_, iterative_;
   int dim_, elementSize_, dofsPerVertex_, columns_, rows_, localSize_;
-  Eigen::MatrixXd operators_;     // stacked L_k, coupled layout only
-  Stacked fixedTargets_;          // constant targets of the linear energies
+  Eigen::MatrixXd operators_;  // stacked L_k, coupled layout only
+  Stacked fixedTargets_;       // constant targets of the linear energies
 };
 
 }  // namespace diffreg

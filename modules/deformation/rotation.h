@@ -48,35 +48,50 @@ inline Eigen::Matrix2d closestRotation2(const Eigen::Matrix2d& F, double& trace)
   return R;
 }
 
-/// For a surface element with unit rest normal n and F = F P (F n = 0 up to rounding): the
-/// closest rotation R to F restricted to the tangent plane, T = R P, in closed form. With an
-/// orthonormal tangent frame (t1, t2) of n and M = [F t1, F t2] (3 x 2), T = Q [t1 t2]^T for the
-/// polar factor Q = M (M^T M)^(-1/2), and for a symmetric positive definite 2 x 2 matrix C with
-/// delta = sqrt(det C): sqrt(C) = (C + delta I) / tau, tau = sqrt(tr C + 2 delta) = sigma1 +
-/// sigma2; delta = |F t1 x F t2| = sigma1 sigma2 without cancellation. `trace` = tr(T^T F) =
-/// sigma1 + sigma2. Returns false (T untouched) when the deformed element is degenerate
-/// (sigma2 <= 1e-10 sigma1); the caller then uses the SVD.
-inline bool tangentRotation(const Eigen::Matrix3d& F, const Eigen::Vector3d& n, Eigen::Matrix3d& T,
-                            double& trace) {
-  // Orthonormal frame of n without branches on its direction (Duff et al., JCGT 2017).
+/// 3 x 2 blocks: a surface element's tangent frame [t1 t2], and a target or deformation
+/// gradient in that frame.
+using Matrix32 = Eigen::Matrix<double, 3, 2>;
+
+/// The orthonormal tangent frame [t1 t2] of the unit normal n (t1 x t2 = n), without branches
+/// on its direction (Duff et al., JCGT 2017).
+inline Matrix32 tangentFrame(const Eigen::Vector3d& n) {
   const double sign = std::copysign(1.0, n.z());
   const double a = -1.0 / (sign + n.z()), b = n.x() * n.y() * a;
-  const Eigen::Vector3d t1(1.0 + sign * n.x() * n.x() * a, sign * b, -sign * n.x());
-  const Eigen::Vector3d t2(b, sign + n.y() * n.y() * a, -n.y());
-  const Eigen::Vector3d m1 = F * t1, m2 = F * t2;
-  const double c11 = m1.squaredNorm(), c22 = m2.squaredNorm(), c12 = m1.dot(m2);
+  Matrix32 E;
+  E.col(0) << 1.0 + sign * n.x() * n.x() * a, sign * b, -sign * n.x();
+  E.col(1) << b, sign + n.y() * n.y() * a, -n.y();
+  return E;
+}
+
+/// The orthogonal polar factor Q = M (M^T M)^(-1/2) of a 3 x 2 M = [m1 m2] in closed form: for
+/// the symmetric positive definite C = M^T M with delta = sqrt(det C), sqrt(C) = (C + delta I) /
+/// tau, tau = sqrt(tr C + 2 delta) = sigma1 + sigma2; delta = |m1 x m2| = sigma1 sigma2 without
+/// cancellation. Q maximizes tr(Q^T M) over 3 x 2 matrices with orthonormal columns, and
+/// `trace` = tr(Q^T M) = sigma1 + sigma2. Returns false (Q untouched) when M is (nearly)
+/// degenerate (sigma2 <= 1e-10 sigma1).
+[[gnu::always_inline]] inline bool tangentPolar(const Matrix32& M, Matrix32& Q, double& trace) {
+  // Scalar arithmetic throughout: the compiler packs Eigen's cross product into vectors
+  // through the stack, which stalls this latency-bound loop body.
+  const double a0 = M(0, 0), a1 = M(1, 0), a2 = M(2, 0), b0 = M(0, 1), b1 = M(1, 1), b2 = M(2, 1);
+  const double c11 = a0 * a0 + a1 * a1 + a2 * a2, c22 = b0 * b0 + b1 * b1 + b2 * b2;
+  const double c12 = a0 * b0 + a1 * b1 + a2 * b2;
+  const double x = a1 * b2 - a2 * b1, y = a2 * b0 - a0 * b2, z = a0 * b1 - a1 * b0;
   const double tr = c11 + c22;
-  const double delta = m1.cross(m2).norm();
+  const double delta = std::sqrt(x * x + y * y + z * z);
   if (!(delta > 1e-10 * tr)) return false;
   const double tau = std::sqrt(tr + 2.0 * delta);
   const double scale = 1.0 / (delta * tau);
-  const Eigen::Vector3d q1 = ((c22 + delta) * scale) * m1 - (c12 * scale) * m2;
-  const Eigen::Vector3d q2 = ((c11 + delta) * scale) * m2 - (c12 * scale) * m1;
-  T.noalias() = q1 * t1.transpose();
-  T.noalias() += q2 * t2.transpose();
+  const double p1 = (c22 + delta) * scale, p2 = (c11 + delta) * scale, q = c12 * scale;
+  Q << p1 * a0 - q * b0, p2 * b0 - q * a0,  //
+      p1 * a1 - q * b1, p2 * b1 - q * a1,   //
+      p1 * a2 - q * b2, p2 * b2 - q * a2;
   trace = tau;
   return true;
 }
+
+/// The thin SVD form Q = U V^T of tangentPolar's polar factor, for any M (kept out of line:
+/// the closed form's callers are hot loops).
+Matrix32 tangentPolarSvd(const Matrix32& M, double& trace);
 
 /// Closest rotation to a 3 x 3 F with det F > 0 by the scaled Newton iteration for the polar
 /// decomposition, X <- (g X + X^-T / g) / 2 with Frobenius scaling g = (|X^-1| / |X|)^(1/2)
@@ -111,33 +126,45 @@ inline bool polarRotation3(const Eigen::Matrix3d& F, Eigen::Matrix3d& R, double&
   return false;
 }
 
+/// closestRotation<3> and `trace` = the sum of its signed singular values (kept out of line: the
+/// fallback of the closed forms in hot loops).
+Eigen::Matrix3d closestRotation3(const Eigen::Matrix3d& C, double& trace);
+
 /// The proper rotation R closest to C (d = 3, tets; or the tangent-plane target of a surface
-/// element with unit rest normal `normal`: T = R P, P = I - n n^T) and `trace` = tr(T^T C).
-/// Surfaces: T = Q [t1 t2]^T with Q the polar factor of M = [C t1, C t2] for a tangent frame
-/// (t1, t2), which maximizes tr(T^T C) for any C (C n need not vanish); closed form, with the
-/// thin SVD of M when M is (nearly) degenerate. Tets: the polar Newton iteration, with the SVD
-/// for inverted or nearly singular C.
+/// element with unit rest normal `normal`: T = R P, P = I - n n^T), written column-major to the
+/// 9 doubles at `T`, and `trace` = tr(T^T C). Surfaces: T = Q E^T with Q the polar factor of
+/// M = C E for the tangent frame E of the normal (tangentPolar, with the SVD when M is nearly
+/// degenerate), which maximizes tr(T^T C) for any C (C n need not vanish). Tets: the polar
+/// Newton iteration, with the SVD for inverted or nearly singular C. Surfaces in scalars and
+/// straight into `T`: the batched fits of the local step are bound by the latency of the
+/// square roots, and small Eigen temporaries here went through the stack.
+[[gnu::always_inline]] inline void rotationTarget(const Eigen::Matrix3d& C,
+                                                  const Eigen::Vector3d* normal, double& trace,
+                                                  double* T) {
+  if (normal) {
+    const Matrix32 E = tangentFrame(*normal);
+    Matrix32 M, Q;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 2; ++c)
+        M(r, c) = C(r, 0) * E(0, c) + C(r, 1) * E(1, c) + C(r, 2) * E(2, c);
+    if (!tangentPolar(M, Q, trace)) Q = tangentPolarSvd(M, trace);
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) T[c * 3 + r] = Q(r, 0) * E(c, 0) + Q(r, 1) * E(c, 1);
+    return;
+  }
+  Eigen::Map<Eigen::Matrix3d> out(T);
+  Eigen::Matrix3d R;
+  if (polarRotation3(C, R, trace))
+    out = R;
+  else
+    out = closestRotation3(C, trace);
+}
+
+/// rotationTarget as a matrix.
 inline Eigen::Matrix3d rotationTarget(const Eigen::Matrix3d& C, const Eigen::Vector3d* normal,
                                       double& trace) {
   Eigen::Matrix3d T;
-  if (normal) {
-    if (tangentRotation(C, *normal, T, trace)) return T;
-    const Eigen::Vector3d& n = *normal;
-    Eigen::Matrix<double, 3, 2> frame;
-    const Eigen::Vector3d helper =
-        std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-    frame.col(0) = n.cross(helper).normalized();
-    frame.col(1) = n.cross(frame.col(0));
-    const Eigen::MatrixXd M = C * frame;  // dynamic: thin factors of a 3 x 2 matrix
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(M, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    T = svd.matrixU() * svd.matrixV().transpose() * frame.transpose();
-    trace = svd.singularValues().sum();
-    return T;
-  }
-  if (polarRotation3(C, T, trace)) return T;
-  Eigen::Vector3d sigma;
-  T = closestRotation<3>(C, sigma);
-  trace = sigma.sum();
+  rotationTarget(C, normal, trace, T.data());
   return T;
 }
 
