@@ -19,11 +19,11 @@ constexpr int kWeakGrain = 128;  // their colours are small: chunks that keep bo
 // C_k^T (row-major, in Ct) and its weight for element k (local_step.h).
 template <int D>
 double blend(const Regularizer& reg, int k, const Stacked& F, const Stacked& t, double* Ct) {
+  // C_k = weight F_k + sum_l w_kl (T_l - F_l), summed in a local array: Ct may alias F and t
+  // as far as the compiler knows, which would keep every partial sum in memory.
   constexpr int dd = D * D;
   const double* Fk = F.data() + static_cast<Eigen::Index>(k) * dd;
-  const double wk = reg.elementWeight()(k);
-  double weight = wk;
-  for (int j = 0; j < dd; ++j) Ct[j] = wk * Fk[j];
+  double weight = reg.elementWeight()(k), sum[dd] = {};
   for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
     const double w = reg.neighbourWeight(g);
     if (w == 0.0) continue;
@@ -31,12 +31,13 @@ double blend(const Regularizer& reg, int k, const Stacked& F, const Stacked& t, 
     const Eigen::Index other = static_cast<Eigen::Index>(reg.neighbour(g)) * dd;
     const double* Fl = F.data() + other;
     const double* Tl = t.data() + other;
-    for (int j = 0; j < dd; ++j) Ct[j] += w * (Fk[j] - Fl[j] + Tl[j]);
+    for (int j = 0; j < dd; ++j) sum[j] += w * (Tl[j] - Fl[j]);
   }
   if (!(weight > 0.0)) {  // no energy on this element: any target; keep the plain fit
-    weight = 1.0;
     for (int j = 0; j < dd; ++j) Ct[j] = Fk[j];
+    return 1.0;
   }
+  for (int j = 0; j < dd; ++j) Ct[j] = weight * Fk[j] + sum[j];
   return weight;
 }
 
