@@ -99,31 +99,55 @@ Matrix32 tangentPolarSvd(const Matrix32& M, double& trace);
 /// rotation and equal to closestRotation<3>. `trace` = tr(R^T F). Returns false (R untouched)
 /// when F is inverted or close to singular (det F <= 1e-6 (|F|_F / sqrt 3)^3) or the iteration
 /// does not settle; the caller then uses the SVD.
-inline bool polarRotation3(const Eigen::Matrix3d& F, Eigen::Matrix3d& R, double& trace) {
+/// In scalars on column-major arrays, R written column-major to the 9 doubles at `R` (as
+/// tangentPolar: the local step's fits wait on this chain).
+[[gnu::always_inline]] inline bool polarRotation3(const Eigen::Matrix3d& F, double* R,
+                                                  double& trace) {
   const double f2 = F.squaredNorm();
   const double mean = std::sqrt(f2 / 3.0);
   if (!(F.determinant() > 1e-6 * mean * mean * mean)) return false;
-  Eigen::Matrix3d X = F, C;
+  double X[9], C[9];
+  for (int j = 0; j < 9; ++j) X[j] = F(j);
   for (int it = 0; it < 40; ++it) {
-    // Cofactor matrix: det(X) X^-T.
-    C.col(0) = X.col(1).cross(X.col(2));
-    C.col(1) = X.col(2).cross(X.col(0));
-    C.col(2) = X.col(0).cross(X.col(1));
-    const double det = X.col(0).dot(C.col(0));
+    // Cofactor matrix: det(X) X^-T; column a is the cross product of the other two columns.
+    for (int a = 0; a < 3; ++a) {
+      const double* u = X + 3 * ((a + 1) % 3);
+      const double* v = X + 3 * ((a + 2) % 3);
+      C[3 * a] = u[1] * v[2] - u[2] * v[1];
+      C[3 * a + 1] = u[2] * v[0] - u[0] * v[2];
+      C[3 * a + 2] = u[0] * v[1] - u[1] * v[0];
+    }
+    const double det = X[0] * C[0] + X[1] * C[1] + X[2] * C[2];
     if (!(det > 0.0)) return false;
-    const double x2 = X.squaredNorm(), y2 = C.squaredNorm() / (det * det);
-    const double g = std::sqrt(std::sqrt(y2 / x2));
-    const Eigen::Matrix3d next = 0.5 * g * X + (0.5 / (g * det)) * C;
-    const double change = (next - X).squaredNorm();
-    X = next;
+    double x2 = 0.0, c2 = 0.0;
+    for (int j = 0; j < 9; ++j) {
+      x2 += X[j] * X[j];
+      c2 += C[j] * C[j];
+    }
+    const double g = std::sqrt(std::sqrt(c2 / (det * det) / x2));
+    const double p = 0.5 * g, q = 0.5 / (g * det);
+    double change = 0.0;
+    for (int j = 0; j < 9; ++j) {
+      const double next = p * X[j] + q * C[j];
+      change += (next - X[j]) * (next - X[j]);
+      X[j] = next;
+    }
     // The error after a step is about the square of the step before it.
     if (change < 1e-20) {
-      R = X;
-      trace = R.cwiseProduct(F).sum();
+      trace = 0.0;
+      for (int j = 0; j < 9; ++j) {
+        R[j] = X[j];
+        trace += X[j] * F(j);
+      }
       return true;
     }
   }
   return false;
+}
+
+/// polarRotation3 into a matrix.
+inline bool polarRotation3(const Eigen::Matrix3d& F, Eigen::Matrix3d& R, double& trace) {
+  return polarRotation3(F, R.data(), trace);
 }
 
 /// closestRotation<3> and `trace` = the sum of its signed singular values (kept out of line: the
@@ -152,12 +176,7 @@ Eigen::Matrix3d closestRotation3(const Eigen::Matrix3d& C, double& trace);
       for (int r = 0; r < 3; ++r) T[c * 3 + r] = Q(r, 0) * E(c, 0) + Q(r, 1) * E(c, 1);
     return;
   }
-  Eigen::Map<Eigen::Matrix3d> out(T);
-  Eigen::Matrix3d R;
-  if (polarRotation3(C, R, trace))
-    out = R;
-  else
-    out = closestRotation3(C, trace);
+  if (!polarRotation3(C, T, trace)) Eigen::Map<Eigen::Matrix3d>{T} = closestRotation3(C, trace);
 }
 
 /// rotationTarget as a matrix.
