@@ -231,6 +231,37 @@ TEST_CASE("with uniform beta = 1 every element is held only by its neighbours, a
   }
 }
 
+TEST_CASE("a run continued in batches takes the steps of one run, also when a batch ends "
+          "right before the plain step that decides stationarity",
+          "[deformation][convergence]") {
+  for (MeshKind kind : kAllKinds)
+    for (Regularization mode : kModes) {
+      const Bent b = bentBar(kind);
+      const DeformationOptions o = optionsFor(b, Energy::Arap, mode);
+      auto session = [&] {
+        auto s = std::make_unique<DeformationSession>(*b.disc, o);
+        s->setHandles(b.handles);
+        s->setTargets(b.targets);
+        return s;
+      };
+      const DeformationResult once = session()->solve();
+      INFO(toString(kind) << " " << toString(mode) << ": " << once.iterations << " iterations");
+      REQUIRE(once.converged);
+      // The last iteration of a converged L-BFGS run is the plain step, taken because the
+      // step before it gained less than the tolerance: cap the first batch right there.
+      for (int first : {once.iterations - 1, once.iterations / 2}) {
+        auto s = session();
+        const DeformationResult head = s->solve(first, kDefaultTolerance);
+        REQUIRE_FALSE(head.converged);
+        const DeformationResult tail = s->resume(kDefaultIterations, kDefaultTolerance);
+        CHECK(tail.converged);
+        CHECK(head.iterations + tail.iterations == once.iterations);
+        CHECK(tail.energies.back() == once.energies.back());
+        CHECK((tail.positions - once.positions).cwiseAbs().maxCoeff() == 0.0);
+      }
+    }
+}
+
 TEST_CASE("local_step=reference reproduces the earlier iterates", "[deformation][convergence]") {
   // Energies and one vertex after 20 reference iterations, recorded before the exact local step
   // and the acceleration were added (the fixed-count local/global loop of the paper's code).

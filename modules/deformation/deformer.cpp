@@ -270,6 +270,17 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     advance(X, trial, trialT, energy, E, result);
     return decrease;
   };
+  // Stationarity is decided by a plain step: what one more local/global iteration gains.
+  auto stationary = [&] {
+    result.criterion = accept(plainStep(trial, trialT, E));
+    if (result.criterion <= tolerance) result.converged = true;
+  };
+  if (stationarityDue_) {  // resumed where the last run's cap came before that step
+    stationarityDue_ = false;
+    stationary();
+    report(result);
+    if (result.converged) return;
+  }
   while (result.iterations < maxIterations) {
     Eigen::MatrixXd d = history.direction(g, initial);
     double slope = scale * d.cwiseProduct(g).sum();
@@ -293,10 +304,11 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
       energy = plainStep(trial, trialT, E);
     }
     result.criterion = accept(energy);
-    if (result.criterion <= tolerance && result.iterations < maxIterations) {
-      // Stationarity is decided by a plain step: what one more local/global iteration gains.
-      result.criterion = accept(plainStep(trial, trialT, E));
-      if (result.criterion <= tolerance) result.converged = true;
+    if (result.criterion <= tolerance) {
+      if (result.iterations < maxIterations)
+        stationary();
+      else
+        stationarityDue_ = true;
     }
     report(result);
     if (result.converged) return;
@@ -331,6 +343,7 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
       result.initialGuess = "continued";
       result.energies.push_back(E);
     } else {
+      stationarityDue_ = false;
       lbfgs_ = LbfgsHistory(std::max(1, options_.history));
       anderson_ = AndersonMixer(std::max(1, options_.history));
       E = start(initial, X, result);

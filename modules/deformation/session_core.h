@@ -87,6 +87,10 @@ class DeformationCore {
   Eigen::MatrixXd lastX_;
   double lastE_ = 0.0;
   bool resumable_ = false;
+  // The last L-BFGS step met the tolerance at the iteration cap, before the plain step that
+  // decides stationarity: resume() takes that step first, so that a run continued in batches
+  // takes the same steps as one run.
+  bool stationarityDue_ = false;
   LbfgsHistory lbfgs_{1};
   AndersonMixer anderson_{1};
   std::unique_ptr<HandleBasis> basis_;  // options_.handleBasis: for these handles and weights
