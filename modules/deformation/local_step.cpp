@@ -41,28 +41,84 @@ double blend(const Regularizer& reg, int k, const Stacked& F, const Stacked& t, 
   return weight;
 }
 
-// One colour of the exact sweep: T_k = fit(C_k, weight) for its elements, in place in t (F and
-// t hold row-major D x D blocks F_k^T and T_k^T). In 3D kFitBatch elements at a time: their C_k
+// The over-relaxation factor of element k's update: the optimal factor of successive
+// over-relaxation, 2 / (1 + sqrt(1 - rho^2)), for the share rho of the element's neighbours in
+// its blend (capped at kMaxCoupling), which is the row sum of the Jacobi iteration on the
+// targets (local_step.h).
+double overRelaxation(double ownWeight, double weight) {
+  const double rho = std::min(kMaxCoupling, 1.0 - ownWeight / weight);
+  return rho > 0.0 ? 2.0 / (1.0 + std::sqrt(1.0 - rho * rho)) : 1.0;
+}
+
+// Element k's over-relaxed blend: omega C_k - (omega - 1) weight T_k (row-major C^T and T^T),
+// the fit of which moves T_k past the block minimizer along the same turn (to first order).
+template <int D>
+void overRelax(const Regularizer& reg, int k, double weight, const double* Ct, const double* Tt,
+               double* out) {
+  const double omega = overRelaxation(reg.elementWeight()(k), weight);
+  for (int j = 0; j < D * D; ++j) out[j] = omega * Ct[j] - (omega - 1.0) * weight * Tt[j];
+}
+
+// The block objective of a target: weight ||T||^2 - 2 tr(T^T C), the terms of eq. 3 in T_k.
+template <int D>
+double blockObjective(const double* Ct, double weight, const double* Tt) {
+  double norm = 0.0, inner = 0.0;
+  for (int j = 0; j < D * D; ++j) {
+    norm += Tt[j] * Tt[j];
+    inner += Tt[j] * Ct[j];
+  }
+  return weight * norm - 2.0 * inner;
+}
+
+// One colour of the exact sweep, in place in t (F and t hold row-major D x D blocks F_k^T and
+// T_k^T). Plain: T_k = fit(C_k, weight), the block minimizer. Over-relaxed: the fit of the
+// over-relaxed blend, kept where its block objective is at most the previous target's (so eq. 3
+// does not rise), else the block minimizer. In 3D kFitBatch elements at a time: their blends
 // first, then one fitElements call (a row-major C^T is the column-major C).
 template <int D>
 void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::vector<int>& ids,
-                 const Stacked& F, Stacked& t, int grain = kGrain) {
+                 const Stacked& F, Stacked& t, bool relax, int grain = kGrain) {
+  constexpr int dd = D * D;
   parallel::forChunks(static_cast<int>(ids.size()), grain, [&](int, int begin, int end) {
     if constexpr (D == 3) {
-      Eigen::Matrix3d C[kFitBatch];
-      double weight[kFitBatch];
+      Eigen::Matrix3d C[kFitBatch], relaxed[kFitBatch];
+      double weight[kFitBatch], previous[kFitBatch][dd];
       for (int first = begin; first < end; first += kFitBatch) {
         const int count = std::min(kFitBatch, end - first);
         const int* batch = ids.data() + first;
         for (int i = 0; i < count; ++i) weight[i] = blend<3>(reg, batch[i], F, t, C[i].data());
-        model.fitElements(count, batch, C, weight, t);
+        if (!relax) {
+          model.fitElements(count, batch, C, weight, t);
+          continue;
+        }
+        for (int i = 0; i < count; ++i) {
+          const double* Tt = t.data() + static_cast<Eigen::Index>(batch[i]) * dd;
+          std::copy(Tt, Tt + dd, previous[i]);
+          overRelax<3>(reg, batch[i], weight[i], C[i].data(), Tt, relaxed[i].data());
+        }
+        model.fitElements(count, batch, relaxed, weight, t);
+        for (int i = 0; i < count; ++i) {
+          double* Tt = t.data() + static_cast<Eigen::Index>(batch[i]) * dd;
+          if (blockObjective<3>(C[i].data(), weight[i], Tt) >
+              blockObjective<3>(C[i].data(), weight[i], previous[i]))
+            model.fitElement(C[i].data(), weight[i], batch[i], Tt);
+        }
       }
     } else {
-      double Ct[D * D];
+      double Ct[dd], relaxed[dd], previous[dd];
       for (int i = begin; i < end; ++i) {
         const int k = ids[static_cast<size_t>(i)];
         const double weight = blend<D>(reg, k, F, t, Ct);
-        model.fitElement(Ct, weight, k, t.data() + static_cast<Eigen::Index>(k) * D * D);
+        double* Tt = t.data() + static_cast<Eigen::Index>(k) * dd;
+        if (!relax) {
+          model.fitElement(Ct, weight, k, Tt);
+          continue;
+        }
+        std::copy(Tt, Tt + dd, previous);
+        overRelax<D>(reg, k, weight, Ct, Tt, relaxed);
+        model.fitElement(relaxed, weight, k, Tt);
+        if (blockObjective<D>(Ct, weight, Tt) > blockObjective<D>(Ct, weight, previous))
+          model.fitElement(Ct, weight, k, Tt);
       }
     }
   });
@@ -130,7 +186,7 @@ void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacke
     if (done >= total) return;
     for (int end = std::min(total, done + kWeakRound); done < end; ++done)
       for (const std::vector<int>& ids : reg.weakColours())
-        sweepColour<D>(model, reg, ids, F, t, kWeakGrain);
+        sweepColour<D>(model, reg, ids, F, t, false, kWeakGrain);
   }
 }
 
@@ -167,12 +223,19 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
     }
   }
   settleWeak<D>(model, reg, F, t);
-  for (int i = 0; i < kLocalSweeps; ++i)
-    for (const std::vector<int>& ids : reg.colours()) sweepColour<D>(model, reg, ids, F, t);
+  sweepTargets(model, reg, F, t, kLocalSweeps);
   return model.energy(F, t, w);
 }
 
 }  // namespace
+
+void sweepTargets(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t,
+                  int count, bool overRelaxed) {
+  for (int i = 0; i < count; ++i)
+    for (const std::vector<int>& ids : reg.colours())
+      model.rows() == 3 ? sweepColour<3>(model, reg, ids, F, t, overRelaxed)
+                        : sweepColour<2>(model, reg, ids, F, t, overRelaxed);
+}
 
 double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep step,
                  const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
