@@ -16,14 +16,30 @@ constexpr int kWeakSweeps = 16;  // sweeps over the weakly anchored elements per
 constexpr int kWeakRound = 8;    // of them between two turns
 constexpr int kWeakGrain = 128;  // their colours are small: chunks that keep both threads busy
 
-// C_k^T (row-major, in Ct) and its weight for element k (local_step.h).
+// Element k's blend for the exact sweep (local_step.h): C_k^T (row-major, in Ct), its weight
+// and the over-relaxation factor of its update.
+struct Blend {
+  double weight = 1.0;
+  double omega = 1.0;
+};
+
+// The over-relaxation factor for an element whose neighbours make up the share `coupling` of
+// its blend: Young's optimal SOR factor 2 / (1 + sqrt(1 - rho^2)) with that share (the row sum
+// of the Jacobi iteration on the targets) standing in for the Jacobi spectral radius rho,
+// capped at kMaxCoupling.
+double overRelaxation(double coupling) {
+  const double rho = std::min(kMaxCoupling, coupling);
+  return rho > 0.0 ? 2.0 / (1.0 + std::sqrt(1.0 - rho * rho)) : 1.0;
+}
+
 template <int D>
-double blend(const Regularizer& reg, int k, const Stacked& F, const Stacked& t, double* Ct) {
+Blend blend(const Regularizer& reg, int k, const Stacked& F, const Stacked& t, double* Ct) {
   // C_k = weight F_k + sum_l w_kl (T_l - F_l), summed in a local array: Ct may alias F and t
   // as far as the compiler knows, which would keep every partial sum in memory.
   constexpr int dd = D * D;
   const double* Fk = F.data() + static_cast<Eigen::Index>(k) * dd;
-  double weight = reg.elementWeight()(k), sum[dd] = {};
+  const double own = reg.elementWeight()(k);
+  double weight = own, sum[dd] = {};
   for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
     const double w = reg.neighbourWeight(g);
     if (w == 0.0) continue;
@@ -35,28 +51,10 @@ double blend(const Regularizer& reg, int k, const Stacked& F, const Stacked& t, 
   }
   if (!(weight > 0.0)) {  // no energy on this element: any target; keep the plain fit
     for (int j = 0; j < dd; ++j) Ct[j] = Fk[j];
-    return 1.0;
+    return {};
   }
   for (int j = 0; j < dd; ++j) Ct[j] = weight * Fk[j] + sum[j];
-  return weight;
-}
-
-// The over-relaxation factor of element k's update: the optimal factor of successive
-// over-relaxation, 2 / (1 + sqrt(1 - rho^2)), for the share rho of the element's neighbours in
-// its blend (capped at kMaxCoupling), which is the row sum of the Jacobi iteration on the
-// targets (local_step.h).
-double overRelaxation(double ownWeight, double weight) {
-  const double rho = std::min(kMaxCoupling, 1.0 - ownWeight / weight);
-  return rho > 0.0 ? 2.0 / (1.0 + std::sqrt(1.0 - rho * rho)) : 1.0;
-}
-
-// Element k's over-relaxed blend: omega C_k - (omega - 1) weight T_k (row-major C^T and T^T),
-// the fit of which moves T_k past the block minimizer along the same turn (to first order).
-template <int D>
-void overRelax(const Regularizer& reg, int k, double weight, const double* Ct, const double* Tt,
-               double* out) {
-  const double omega = overRelaxation(reg.elementWeight()(k), weight);
-  for (int j = 0; j < D * D; ++j) out[j] = omega * Ct[j] - (omega - 1.0) * weight * Tt[j];
+  return {weight, overRelaxation(1.0 - own / weight)};
 }
 
 // The block objective of a target: weight ||T||^2 - 2 tr(T^T C), the terms of eq. 3 in T_k.
@@ -70,58 +68,87 @@ double blockObjective(const double* Ct, double weight, const double* Tt) {
   return weight * norm - 2.0 * inner;
 }
 
+// An over-relaxed update, before its fit: keeps the current target in `previous` and writes
+// the blend to fit, omega C_k - (omega - 1) weight T_k, to `relaxed` (for a quadratic block the
+// point omega of the way from T_k to the block minimizer; for rotations the same turn to first
+// order).
+template <int D>
+void overRelax(const double* Ct, const Blend& b, const double* Tt, double* previous,
+               double* relaxed) {
+  for (int j = 0; j < D * D; ++j) {
+    previous[j] = Tt[j];
+    relaxed[j] = b.omega * Ct[j] - (b.omega - 1.0) * b.weight * Tt[j];
+  }
+}
+
+// After the over-relaxed fit of element k into Tt: where it raised the block objective over the
+// previous target's, the block minimizer instead, so eq. 3 does not rise. At settled targets
+// the over-relaxed fit ties with the previous target up to rounding and often takes this
+// second fit; keeping the previous target on such ties instead made runs at two scales of one
+// mesh part by 5e-7 (a rounding-level choice that steers the path), where the block minimizer
+// keeps them within 1e-9.
+template <int D>
+void keepDescent(const ResidualModel& model, int k, const double* Ct, const Blend& b,
+                 const double* previous, double* Tt) {
+  if (blockObjective<D>(Ct, b.weight, Tt) > blockObjective<D>(Ct, b.weight, previous))
+    model.fitElement(Ct, b.weight, k, Tt);
+}
+
 // One colour of the exact sweep, in place in t (F and t hold row-major D x D blocks F_k^T and
-// T_k^T). Plain: T_k = fit(C_k, weight), the block minimizer. Over-relaxed: the fit of the
-// over-relaxed blend, kept where its block objective is at most the previous target's (so eq. 3
-// does not rise), else the block minimizer. In 3D kFitBatch elements at a time: their blends
-// first, then one fitElements call (a row-major C^T is the column-major C).
+// T_k^T). Plain: T_k = fit(C_k, weight), the block minimizer. Over-relaxed (`relax`): the fit of
+// the over-relaxed blend, kept where it does not raise the block objective (keepDescent). In 3D
+// kFitBatch elements at a time: their blends first, then one fitElements call (a row-major C^T
+// is the column-major C).
 template <int D>
 void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::vector<int>& ids,
                  const Stacked& F, Stacked& t, bool relax, int grain = kGrain) {
   constexpr int dd = D * D;
+  auto target = [&t](int k) { return t.data() + static_cast<Eigen::Index>(k) * dd; };
   parallel::forChunks(static_cast<int>(ids.size()), grain, [&](int, int begin, int end) {
     if constexpr (D == 3) {
       Eigen::Matrix3d C[kFitBatch], relaxed[kFitBatch];
-      double weight[kFitBatch], previous[kFitBatch][dd];
+      Blend b[kFitBatch];
+      double previous[kFitBatch][dd];
       for (int first = begin; first < end; first += kFitBatch) {
         const int count = std::min(kFitBatch, end - first);
         const int* batch = ids.data() + first;
-        for (int i = 0; i < count; ++i) weight[i] = blend<3>(reg, batch[i], F, t, C[i].data());
-        if (!relax) {
-          model.fitElements(count, batch, C, weight, t);
-          continue;
-        }
         for (int i = 0; i < count; ++i) {
-          const double* Tt = t.data() + static_cast<Eigen::Index>(batch[i]) * dd;
-          std::copy(Tt, Tt + dd, previous[i]);
-          overRelax<3>(reg, batch[i], weight[i], C[i].data(), Tt, relaxed[i].data());
+          b[i] = blend<3>(reg, batch[i], F, t, C[i].data());
+          if (relax)
+            overRelax<3>(C[i].data(), b[i], target(batch[i]), previous[i], relaxed[i].data());
+          else
+            relaxed[i] = C[i];
         }
+        double weight[kFitBatch];
+        for (int i = 0; i < count; ++i) weight[i] = b[i].weight;
         model.fitElements(count, batch, relaxed, weight, t);
-        for (int i = 0; i < count; ++i) {
-          double* Tt = t.data() + static_cast<Eigen::Index>(batch[i]) * dd;
-          if (blockObjective<3>(C[i].data(), weight[i], Tt) >
-              blockObjective<3>(C[i].data(), weight[i], previous[i]))
-            model.fitElement(C[i].data(), weight[i], batch[i], Tt);
-        }
+        if (relax)
+          for (int i = 0; i < count; ++i)
+            keepDescent<3>(model, batch[i], C[i].data(), b[i], previous[i], target(batch[i]));
       }
     } else {
       double Ct[dd], relaxed[dd], previous[dd];
       for (int i = begin; i < end; ++i) {
         const int k = ids[static_cast<size_t>(i)];
-        const double weight = blend<D>(reg, k, F, t, Ct);
-        double* Tt = t.data() + static_cast<Eigen::Index>(k) * dd;
+        const Blend b = blend<D>(reg, k, F, t, Ct);
         if (!relax) {
-          model.fitElement(Ct, weight, k, Tt);
+          model.fitElement(Ct, b.weight, k, target(k));
           continue;
         }
-        std::copy(Tt, Tt + dd, previous);
-        overRelax<D>(reg, k, weight, Ct, Tt, relaxed);
-        model.fitElement(relaxed, weight, k, Tt);
-        if (blockObjective<D>(Ct, weight, Tt) > blockObjective<D>(Ct, weight, previous))
-          model.fitElement(Ct, weight, k, Tt);
+        overRelax<D>(Ct, b, target(k), previous, relaxed);
+        model.fitElement(relaxed, b.weight, k, target(k));
+        keepDescent<D>(model, k, Ct, b, previous, target(k));
       }
     }
   });
+}
+
+// `count` sweeps over every colour.
+template <int D>
+void sweepAll(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t,
+              int count, bool relax) {
+  for (int i = 0; i < count; ++i)
+    for (const std::vector<int>& ids : reg.colours()) sweepColour<D>(model, reg, ids, F, t, relax);
 }
 
 // Turns each weakly anchored component's targets together by the rotation Q that minimizes the
@@ -226,7 +253,7 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
     }
   }
   settleWeak<D>(model, reg, F, t);
-  sweepTargets(model, reg, F, t, kLocalSweeps);
+  sweepAll<D>(model, reg, F, t, kLocalSweeps, true);
   return model.energy(F, t, w);
 }
 
@@ -234,10 +261,10 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
 
 void sweepTargets(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t,
                   int count, bool overRelaxed) {
-  for (int i = 0; i < count; ++i)
-    for (const std::vector<int>& ids : reg.colours())
-      model.rows() == 3 ? sweepColour<3>(model, reg, ids, F, t, overRelaxed)
-                        : sweepColour<2>(model, reg, ids, F, t, overRelaxed);
+  if (model.rows() == 3)
+    sweepAll<3>(model, reg, F, t, count, overRelaxed);
+  else
+    sweepAll<2>(model, reg, F, t, count, overRelaxed);
 }
 
 double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep step,

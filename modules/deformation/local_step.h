@@ -22,29 +22,31 @@
 
 namespace diffreg {
 
-/// Gauss-Seidel sweeps of one exact local step. The coupling of the targets across facets
-/// makes smooth changes of the rotation field travel one element per sweep, and the less
-/// settled the targets, the more iterations the L-BFGS descent needs. Measured to the default
-/// stop with one end held and the other pulled by 15% of the diagonal (docs/benchmarks.md,
-/// 2026-11-24), 3 / 4 / 6 sweeps: non-uniform rocker arm 1843 / 1108 / 943 iterations
-/// (9.6 / 6.4 / 6.4 s), armadillo 2058 / 1517 / 2665 (92 / 77 / 148 s), tet-monkey 50 / 49 / 43
-/// (3.3 / 3.9 / 4.4 s), crocodile > 5000 / 4526 / 3531; 2 sweeps: rocker arm 2235.
+/// Sweeps of one exact local step. The coupling of the targets across facets makes smooth
+/// changes of the rotation field travel one element per sweep, and the less settled the
+/// targets, the more iterations the L-BFGS descent needs. Measured to the default stop with one
+/// end held and the other pulled by 15% of the diagonal (docs/benchmarks.md, 2026-11-24), with
+/// plain Gauss-Seidel sweeps, 3 / 4 / 6 sweeps: non-uniform rocker arm 1843 / 1108 / 943
+/// iterations (9.6 / 6.4 / 6.4 s), armadillo 2058 / 1517 / 2665 (92 / 77 / 148 s), tet-monkey
+/// 50 / 49 / 43 (3.3 / 3.9 / 4.4 s), crocodile > 5000 / 4526 / 3531; 2 sweeps: rocker arm 2235.
+/// With the over-relaxed sweeps three were worse than four on 14 runs (2026-11-25).
 constexpr int kLocalSweeps = 4;
 
 /// The sweeps are successive over-relaxation on the targets: element k's update is the fit of
 /// omega_k C_k - (omega_k - 1) weight T_k (T_k its current target), which moves it past the block
-/// minimizer fit(C_k, weight) along the same turn (to first order), with the optimal SOR factor
-/// omega_k = 2 / (1 + sqrt(1 - rho_k^2)) for rho_k = sum_l w_kl / weight, the share of its
-/// neighbours in the blend (the row sum of the Jacobi iteration on the targets), capped at
-/// kMaxCoupling (omega_k <= 1.52). The update is kept only where its block objective
-/// weight ||T||^2 - 2 tr(T^T C_k) is at most the current target's, else the block minimizer is
-/// taken, so eq. 3 never rises; the fixed points are those of plain Gauss-Seidel. Gauss-Seidel
-/// settles the smooth part of a rotation field by about half per sweep; measured to the default
-/// stop on 16 runs (the shared rocker arm, beetle-20k, crocodile and tet-monkey, uniform and
-/// non-uniform, one end pulled by 10% or 20% of the diagonal; docs/benchmarks.md), the
-/// over-relaxed sweeps need 1.75x less time in all (331 -> 189 s), up to 3x with uniform beta,
-/// about the same on the crocodile and the non-uniform tet-monkey, and end lower in 14 of the 16;
-/// a fixed omega of 1.15 / 1.3 / 1.5 for every element: 299 / 228 / 230 s.
+/// minimizer fit(C_k, weight) along the same turn (to first order). omega_k = 2 / (1 + sqrt(1 -
+/// rho_k^2)) is Young's optimal factor with rho_k = sum_l w_kl / weight, the share of its
+/// neighbours in the blend (the row sum of the Jacobi iteration on the targets), standing in for
+/// the Jacobi spectral radius: a heuristic, capped at kMaxCoupling (omega_k <= 1.52), 1 where
+/// nothing couples. The update is kept where its block objective weight ||T||^2 - 2 tr(T^T C_k)
+/// is at most the current target's, else the block minimizer is taken, so eq. 3 never rises,
+/// and the fixed points are those of plain Gauss-Seidel. Gauss-Seidel settles the smooth part of a
+/// rotation field by about half per sweep; measured to the default stop on 16 runs (the shared
+/// rocker arm, beetle-20k, crocodile and tet-monkey, uniform and non-uniform, one end pulled by 10%
+/// or 20% of the diagonal; docs/benchmarks.md), the over-relaxed sweeps took 1.75x less time in all
+/// (331 -> 189 s), mostly from uniform beta (up to 3x); on the non-uniform rocker arm and
+/// tet-monkey some runs took longer (up to 30%); they ended lower in 14 of the 16. A fixed omega
+/// of 1.15 / 1.3 / 1.5 for every element: 299 / 228 / 230 s.
 constexpr double kMaxCoupling = 0.95;
 
 /// Arrays the local step fills and reuses from call to call (kept by the caller, so that a

@@ -52,7 +52,7 @@ struct EnumTable<Regularization> {
 
 
 enum class LocalStep {
-  Exact,      ///< block coordinate descent on eq. 3 (coloured Gauss-Seidel)
+  Exact,      ///< block coordinate descent on eq. 3 (coloured, over-relaxed sweeps)
   Reference,  ///< each target fitted to its own F_k (the reference code; not a descent method)
 };
 
