@@ -108,20 +108,17 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
     if constexpr (D == 3) {
       Eigen::Matrix3d C[kFitBatch], relaxed[kFitBatch];
       Blend b[kFitBatch];
-      double previous[kFitBatch][dd];
+      double weight[kFitBatch], previous[kFitBatch][dd];
       for (int first = begin; first < end; first += kFitBatch) {
         const int count = std::min(kFitBatch, end - first);
         const int* batch = ids.data() + first;
         for (int i = 0; i < count; ++i) {
           b[i] = blend<3>(reg, batch[i], F, t, C[i].data());
+          weight[i] = b[i].weight;
           if (relax)
             overRelax<3>(C[i].data(), b[i], target(batch[i]), previous[i], relaxed[i].data());
-          else
-            relaxed[i] = C[i];
         }
-        double weight[kFitBatch];
-        for (int i = 0; i < count; ++i) weight[i] = b[i].weight;
-        model.fitElements(count, batch, relaxed, weight, t);
+        model.fitElements(count, batch, relax ? relaxed : C, weight, t);
         if (relax)
           for (int i = 0; i < count; ++i)
             keepDescent<3>(model, batch[i], C[i].data(), b[i], previous[i], target(batch[i]));
