@@ -49,8 +49,8 @@ Eigen::MatrixXd Discretization::restFrame(int e) const {
 
 namespace {
 
-void checkElements(MeshKind kind, const Eigen::MatrixXd& positions,
-                   const Eigen::MatrixXi& elements, int k) {
+void checkElements(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements,
+                   int k) {
   const Eigen::Index n = positions.rows(), m = elements.rows();
   if (positions.cols() < 3 && kind != MeshKind::Planar)
     throw InvalidMesh("discretization: positions need 3 columns");
@@ -74,7 +74,8 @@ double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& el
   records.reserve(static_cast<size_t>(m) * 4);
   std::vector<std::uint64_t> edges;  // (smaller id << 32) | larger id
   const auto edge = [](int a, int b) {
-    return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
+    return (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
+           static_cast<std::uint32_t>(std::max(a, b));
   };
   edges.reserve(static_cast<size_t>(m) * 6);
   for (int e = 0; e < m; ++e) {
@@ -253,6 +254,40 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   buildComponents(P3);
 }
 
+Discretization Discretization::withElementOrder(const std::vector<int>& order) const {
+  const Eigen::Index m = elements_.rows(), size = elements_.cols();
+  Discretization copy;
+  copy.kind_ = kind_;
+  copy.dim_ = dim_;
+  copy.rest_ = rest_;
+  copy.elements_.resize(m, size);
+  copy.measures_.resize(m);
+  copy.grads_.resize(grads_.rows(), grads_.cols());
+  copy.normals_.resize(normals_.rows(), normals_.cols());
+  std::vector<int> position(static_cast<size_t>(m));
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const Eigen::Index e = order[static_cast<size_t>(i)];
+    position[static_cast<size_t>(e)] = static_cast<int>(i);
+    copy.elements_.row(i) = elements_.row(e);
+    copy.measures_(i) = measures_(e);
+    copy.grads_.middleRows(i * size, size) = grads_.middleRows(e * size, size);
+    if (normals_.rows() > 0) copy.normals_.row(i) = normals_.row(e);
+  }
+  copy.facets_ = facets_;
+  for (Facet& f : copy.facets_) {
+    f.k = position[static_cast<size_t>(f.k)];
+    f.l = position[static_cast<size_t>(f.l)];
+  }
+  copy.K_ = K_;
+  copy.mass_ = mass_;
+  copy.active_ = active_;
+  copy.component_ = component_;
+  copy.numComponents_ = numComponents_;
+  copy.meanEdge_ = meanEdge_;
+  copy.diagonal_ = diagonal_;
+  return copy;
+}
+
 Discretization::Discretization(const Mesh& mesh) : Discretization(mesh, mesh.positions()) {}
 
 Discretization::Discretization(const Mesh& mesh, const Eigen::MatrixXd& positions) {
@@ -272,9 +307,9 @@ Discretization::Discretization(MeshKind kind, const Eigen::MatrixXd& positions,
               static_cast<size_t>(elements.rows()));
   for (Eigen::Index i = 0; i < positions.rows(); ++i) tri.add_vertex(TriMesh::Point(0, 0, 0));
   for (Eigen::Index e = 0; e < elements.rows(); ++e) {
-    const TriMesh::FaceHandle f = tri.add_face(OpenMesh::VertexHandle(elements(e, 0)),
-                                               OpenMesh::VertexHandle(elements(e, 1)),
-                                               OpenMesh::VertexHandle(elements(e, 2)));
+    const TriMesh::FaceHandle f =
+        tri.add_face(OpenMesh::VertexHandle(elements(e, 0)), OpenMesh::VertexHandle(elements(e, 1)),
+                     OpenMesh::VertexHandle(elements(e, 2)));
     if (!f.is_valid())
       throw InvalidMesh("discretization: triangle " + std::to_string(e) +
                         " does not fit an oriented edge-manifold mesh (an edge with a third "

@@ -18,9 +18,9 @@ using SparseMatrix = Eigen::SparseMatrix<double>;
 /// An interior facet shared by elements k and l: an edge (triangles) or a triangle (tets).
 struct Facet {
   int k = -1, l = -1;
-  double c = 0.0;                  ///< rest edge length or rest triangle area
-  std::array<int, 3> vertices{};   ///< the shared vertices
-  int size = 0;                    ///< 2 for an edge, 3 for a triangle
+  double c = 0.0;                 ///< rest edge length or rest triangle area
+  std::array<int, 3> vertices{};  ///< the shared vertices
+  int size = 0;                   ///< 2 for an edge, 3 for a triangle
 };
 
 class Discretization {
@@ -84,7 +84,14 @@ class Discretization {
   double meanEdgeLength() const { return meanEdge_; }
   double boundingBoxDiagonal() const { return diagonal_; }
 
+  /// This discretization with its elements stored in another order: element i of the copy is
+  /// element order[i] of this one (elements, measures, gradients, normals), and each facet
+  /// joins the same two elements under their new indices, in the same facet order. The vertex
+  /// operators (K, M, components) are the same. \pre order is a permutation of the elements.
+  Discretization withElementOrder(const std::vector<int>& order) const;
+
  private:
+  Discretization() = default;  // withElementOrder() fills the rest
   // `topology`: the triangles as an OpenMesh mesh (null for tets).
   void build(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements,
              const TriMesh* topology);
