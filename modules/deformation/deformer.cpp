@@ -2,6 +2,7 @@
 #include <diffreg/deformation/session_core.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/discretization/element_order.h>
 
 #include <algorithm>
 #include <chrono>
@@ -11,12 +12,16 @@
 namespace diffreg {
 
 DeformationCore::DeformationCore(const Discretization& disc, const DeformationOptions& options)
-    : disc_(disc),
+    : elementOrder_(localityElementOrder(disc)),
+      ordered_(elementOrder_.empty()
+                   ? nullptr
+                   : std::make_unique<Discretization>(disc.withElementOrder(elementOrder_))),
+      disc_(ordered_ ? *ordered_ : disc),
       options_(options),
-      model_(disc, options.energy),
+      model_(disc_, options.energy),
       system_(model_, options.backend, options.reserveRegularization) {
-  if (options.energy == Energy::Arap && disc.kind() == MeshKind::Planar) {
-    initModel_ = std::make_unique<ResidualModel>(disc, Energy::Asap);
+  if (options.energy == Energy::Arap && disc_.kind() == MeshKind::Planar) {
+    initModel_ = std::make_unique<ResidualModel>(disc_, Energy::Asap);
     initSystem_ = std::make_unique<RegularizedSystem>(*initModel_, options.backend,
                                                       options.reserveRegularization);
   }
@@ -24,6 +29,20 @@ DeformationCore::DeformationCore(const Discretization& disc, const DeformationOp
 }
 
 DeformationCore::~DeformationCore() = default;
+
+const RegularizationWeights& DeformationCore::regularizationWeights() const {
+  if (!ordered_) return system_.weights();
+  if (!meshOrderWeights_) {
+    const RegularizationWeights& stored = system_.weights();
+    auto w = std::make_unique<RegularizationWeights>();
+    w->element.resize(stored.element.size());
+    for (Eigen::Index i = 0; i < stored.element.size(); ++i)
+      w->element(elementOrder_[static_cast<size_t>(i)]) = stored.element(i);
+    w->facet = stored.facet;  // the facets keep their order
+    meshOrderWeights_ = std::move(w);
+  }
+  return *meshOrderWeights_;
+}
 
 void DeformationCore::setHandles(const std::vector<int>& vertices) {
   if (vertices.empty()) throw InvalidParameter("deformation: the handle set is empty");
@@ -67,6 +86,7 @@ void DeformationCore::setRegularization(Regularization mode, double beta,
   options_.beta = beta;
   options_.weights = weights;
   system_.setWeights(w);
+  meshOrderWeights_.reset();
   resumable_ = false;
   restRhs_.resize(0, 0);  // C depends on the weights
   basis_.reset();

@@ -38,7 +38,8 @@ class DeformationCore {
   DeformationResult resume(int maxIterations, double relTolerance);
 
   const DeformationOptions& options() const { return options_; }
-  const RegularizationWeights& regularizationWeights() const { return system_.weights(); }
+  /// In the order of the caller's discretization's elements.
+  const RegularizationWeights& regularizationWeights() const;
   const SparseMatrix& systemMatrix() const { return system_.matrix(); }
   SolverStats stats() const;
 
@@ -70,6 +71,14 @@ class DeformationCore {
   double local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
                double reference = 0.0);
   void report(const DeformationResult& result) const;
+  // The elements in locality order (element_order.h) when the caller's order scatters
+  // neighbours: order[i] is the caller's element stored i-th, and ordered_ the copy of the
+  // discretization in that order that everything below is built on. Empty and null when the
+  // caller's discretization is used as it is. Only the per-element regularization weights
+  // leave the session, mapped back (meshOrderWeights_, made on request).
+  std::vector<int> elementOrder_;
+  std::unique_ptr<Discretization> ordered_;
+  mutable std::unique_ptr<RegularizationWeights> meshOrderWeights_;
   const Discretization& disc_;
   DeformationOptions options_;
   ResidualModel model_;
