@@ -3,6 +3,7 @@
 // Morton order brings a scrambled mesh's neighbours back together.
 #include <diffreg/discretization/element_order.h>
 
+#include <diffreg/core/error.h>
 #include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
@@ -78,6 +79,7 @@ TEST_CASE("an element order keeps each element's quantities and each facet's ele
     CHECK(o.rest() == d.rest());
     CHECK(o.component() == d.component());
     CHECK(o.meanEdgeLength() == d.meanEdgeLength());
+    CHECK_THROWS_AS(d.withElementOrder({0, 1}), InvalidParameter);
   }
 }
 

@@ -31,17 +31,7 @@ DeformationCore::DeformationCore(const Discretization& disc, const DeformationOp
 DeformationCore::~DeformationCore() = default;
 
 const RegularizationWeights& DeformationCore::regularizationWeights() const {
-  if (!ordered_) return system_.weights();
-  if (!meshOrderWeights_) {
-    const RegularizationWeights& stored = system_.weights();
-    auto w = std::make_unique<RegularizationWeights>();
-    w->element.resize(stored.element.size());
-    for (Eigen::Index i = 0; i < stored.element.size(); ++i)
-      w->element(elementOrder_[static_cast<size_t>(i)]) = stored.element(i);
-    w->facet = stored.facet;  // the facets keep their order
-    meshOrderWeights_ = std::move(w);
-  }
-  return *meshOrderWeights_;
+  return ordered_ ? meshOrderWeights_ : system_.weights();
 }
 
 void DeformationCore::setHandles(const std::vector<int>& vertices) {
@@ -86,7 +76,12 @@ void DeformationCore::setRegularization(Regularization mode, double beta,
   options_.beta = beta;
   options_.weights = weights;
   system_.setWeights(w);
-  meshOrderWeights_.reset();
+  if (ordered_) {  // the caller's element order; the facets keep theirs
+    meshOrderWeights_.element.resize(w.element.size());
+    for (Eigen::Index i = 0; i < w.element.size(); ++i)
+      meshOrderWeights_.element(elementOrder_[static_cast<size_t>(i)]) = w.element(i);
+    meshOrderWeights_.facet = w.facet;
+  }
   resumable_ = false;
   restRhs_.resize(0, 0);  // C depends on the weights
   basis_.reset();

@@ -75,10 +75,10 @@ class DeformationCore {
   // neighbours: order[i] is the caller's element stored i-th, and ordered_ the copy of the
   // discretization in that order that everything below is built on. Empty and null when the
   // caller's discretization is used as it is. Only the per-element regularization weights
-  // leave the session, mapped back (meshOrderWeights_, made on request).
+  // leave the session, mapped back (meshOrderWeights_, refilled with every new weights).
   std::vector<int> elementOrder_;
   std::unique_ptr<Discretization> ordered_;
-  mutable std::unique_ptr<RegularizationWeights> meshOrderWeights_;
+  RegularizationWeights meshOrderWeights_;
   const Discretization& disc_;
   DeformationOptions options_;
   ResidualModel model_;

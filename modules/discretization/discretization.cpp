@@ -256,6 +256,9 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
 
 Discretization Discretization::withElementOrder(const std::vector<int>& order) const {
   const Eigen::Index m = elements_.rows(), size = elements_.cols();
+  if (static_cast<Eigen::Index>(order.size()) != m)
+    throw InvalidParameter("element order: " + std::to_string(order.size()) + " entries for " +
+                           std::to_string(m) + " elements");
   Discretization copy;
   copy.kind_ = kind_;
   copy.dim_ = dim_;

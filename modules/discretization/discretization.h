@@ -88,6 +88,7 @@ class Discretization {
   /// element order[i] of this one (elements, measures, gradients, normals), and each facet
   /// joins the same two elements under their new indices, in the same facet order. The vertex
   /// operators (K, M, components) are the same. \pre order is a permutation of the elements.
+  /// \throw InvalidParameter when it has the wrong size.
   Discretization withElementOrder(const std::vector<int>& order) const;
 
  private:

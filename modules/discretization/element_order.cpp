@@ -32,18 +32,20 @@ double farFacetShare(const Discretization& disc) {
 
 std::vector<int> mortonElementOrder(const Discretization& disc) {
   const int m = disc.numElements(), size = disc.elementSize(), d = disc.dim();
-  const Eigen::MatrixXd& rest = disc.rest();
-  const Eigen::RowVectorXd lo = rest.colwise().minCoeff(), hi = rest.colwise().maxCoeff();
-  const double extent = std::max((hi - lo).maxCoeff(), 0.0);
+  if (m == 0) return {};
+  // The centroids and their bounding box (unreferenced vertices left out).
+  Eigen::MatrixXd centroid = Eigen::MatrixXd::Zero(m, d);
+  for (int e = 0; e < m; ++e)
+    for (int i = 0; i < size; ++i) centroid.row(e) += disc.rest().row(disc.elements()(e, i));
+  centroid /= size;
+  std::vector<std::pair<std::uint64_t, int>> keyed(static_cast<std::size_t>(m));  // ties by index
+  const Eigen::RowVectorXd lo = centroid.colwise().minCoeff(), hi = centroid.colwise().maxCoeff();
+  const double extent = (hi - lo).maxCoeff();
   const double scale = extent > 0.0 ? static_cast<double>(0x1fffff) / extent : 0.0;
-  // (code, element) pairs sorted: ties by index.
-  std::vector<std::pair<std::uint64_t, int>> keyed(static_cast<std::size_t>(m));
   for (int e = 0; e < m; ++e) {
     std::uint64_t c = 0;
     for (int a = 0; a < d; ++a) {
-      double sum = 0.0;
-      for (int i = 0; i < size; ++i) sum += rest(disc.elements()(e, i), a);
-      const double cell = (sum / size - lo(a)) * scale;
+      const double cell = (centroid(e, a) - lo(a)) * scale;
       c |= spread(static_cast<std::uint64_t>(cell > 0.0 ? std::min(cell, 2097151.0) : 0.0)) << a;
     }
     keyed[static_cast<std::size_t>(e)] = {c, e};

@@ -24,8 +24,8 @@ constexpr double kLocalityFarShare = 0.25;
 /// The share of `disc`'s interior facets whose two elements are more than kLocalityReach apart.
 double farFacetShare(const Discretization& disc);
 
-/// The elements sorted by the Morton code of their centroids in the bounding box (21 bits per
-/// axis; ties by index): order[i] is the element stored i-th.
+/// The elements sorted by the Morton code of their centroids in the centroids' bounding box
+/// (21 bits per axis; ties by index): order[i] is the element stored i-th.
 std::vector<int> mortonElementOrder(const Discretization& disc);
 
 /// mortonElementOrder() when `disc` has at least kLocalityMinElements elements and more than
