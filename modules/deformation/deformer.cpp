@@ -12,7 +12,9 @@
 namespace diffreg {
 
 DeformationCore::DeformationCore(const Discretization& disc, const DeformationOptions& options)
-    : elementOrder_(localityElementOrder(disc)),
+    : elementOrder_(options.reserveRegularization || options.regularization != Regularization::None
+                        ? localityElementOrder(disc)
+                        : std::vector<int>()),
       ordered_(elementOrder_.empty()
                    ? nullptr
                    : std::make_unique<Discretization>(disc.withElementOrder(elementOrder_))),

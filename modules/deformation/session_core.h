@@ -72,7 +72,8 @@ class DeformationCore {
                double reference = 0.0);
   void report(const DeformationResult& result) const;
   // The elements in locality order (element_order.h) when the caller's order scatters
-  // neighbours: order[i] is the caller's element stored i-th, and ordered_ the copy of the
+  // neighbours and the session may be regularized (DeformationOptions::reserveRegularization):
+  // order[i] is the caller's element stored i-th, and ordered_ the copy of the
   // discretization in that order that everything below is built on. Empty and null when the
   // caller's discretization is used as it is. Only the per-element regularization weights
   // leave the session, mapped back (meshOrderWeights_, refilled with every new weights).
