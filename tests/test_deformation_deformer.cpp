@@ -204,17 +204,26 @@ TEST_CASE("the gradient from the residuals, C (F - t), is A x - C t on the free 
 
 TEST_CASE("C t added colour by colour in parallel equals the serial sum over the elements",
           "[deformation][system]") {
-  // Meshes of 5-9K elements; the sphere's poles (96 triangles around a vertex) take the
-  // colouring past its 64 colours of bit masks. No two elements of a colour may share an
-  // unknown (checked directly: a lost or doubled share from two threads would be rare), and
-  // the sum is the serial one.
+  // Meshes of 5-9K elements: generated in rows, they scatter in groups of consecutive
+  // elements; with their elements scrambled, by single elements, and then the sphere's poles
+  // (96 triangles around a vertex) take the colouring past its 64 colours of bit masks. No two
+  // groups of a colour may share an unknown (checked directly: a lost or doubled share from two
+  // threads would be rare), and the sum is the serial one.
   std::vector<std::unique_ptr<Discretization>> meshes;
   meshes.push_back(std::make_unique<Discretization>(makeRectangle(4.0, 1.0, 120, 30)));
   meshes.push_back(std::make_unique<Discretization>(makeSphere(1.0, 96, 48)));
   meshes.push_back(std::make_unique<Discretization>(makeTetBox(4.0, 1.0, 1.0, 24, 6, 6)));
-  for (const auto& disc : meshes)
+  for (size_t i = 1; i < 3; ++i) {
+    std::vector<int> order(static_cast<size_t>(meshes[i]->numElements()));
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), std::mt19937(3));
+    meshes.push_back(std::make_unique<Discretization>(meshes[i]->withElementOrder(order)));
+  }
+  const std::vector<bool> grouped = {true, true, true, false, false};
+  for (size_t mesh = 0; mesh < meshes.size(); ++mesh)
     for (Energy energy : {Energy::Arap, Energy::Asap}) {
-      INFO(toString(disc->kind()) << " " << toString(energy));
+      const auto& disc = meshes[mesh];
+      INFO(toString(disc->kind()) << " " << mesh << " " << toString(energy));
       const ResidualModel model(*disc, energy);
       RegularizedSystem system(model);
       system.setWeights(
@@ -244,23 +253,32 @@ TEST_CASE("C t added colour by colour in parallel equals the serial sum over the
       }
       REQUIRE(b.rows() == expected.rows());
       CHECK(maxAbs(b - expected) <= 1e-12 * maxAbs(expected));
-      std::vector<int> colourOf(static_cast<size_t>(disc->numElements()), -1);
+      // Each element in one group; an unknown's last group of the same colour is its own.
+      std::vector<int> groupOf(static_cast<size_t>(disc->numElements()), -1);
       std::vector<int> owner(static_cast<size_t>(model.numUnknowns()), -1);
-      const std::vector<std::vector<int>> colours = system.scatterColours();
+      const auto colours = system.scatterGroups();
       bool disjoint = true;
-      for (size_t c = 0; c < colours.size(); ++c)
-        for (int k : colours[c]) {
-          CHECK(colourOf[static_cast<size_t>(k)] == -1);
-          colourOf[static_cast<size_t>(k)] = static_cast<int>(c);
-          for (int j = 0; j < model.localSize(); ++j) {
-            int& o = owner[static_cast<size_t>(model.unknown(k, j))];
-            if (o >= 0 && colourOf[static_cast<size_t>(o)] == static_cast<int>(c)) disjoint = false;
-            o = k;
+      int group = 0, largest = 0;
+      for (size_t c = 0; c < colours.size(); ++c) {
+        const int colourStart = group;
+        for (const std::vector<int>& members : colours[c]) {
+          largest = std::max(largest, static_cast<int>(members.size()));
+          for (int k : members) {
+            CHECK(groupOf[static_cast<size_t>(k)] == -1);
+            groupOf[static_cast<size_t>(k)] = group;
+            for (int j = 0; j < model.localSize(); ++j) {
+              int& o = owner[static_cast<size_t>(model.unknown(k, j))];
+              if (o >= colourStart && o != group) disjoint = false;
+              o = group;
+            }
           }
+          ++group;
         }
+      }
       CHECK(disjoint);
-      CHECK(std::count(colourOf.begin(), colourOf.end(), -1) == 0);
-      if (disc->kind() == MeshKind::Surface) CHECK(colours.size() > 64);
+      CHECK(std::count(groupOf.begin(), groupOf.end(), -1) == 0);
+      CHECK((largest > 1) == grouped[mesh]);
+      if (mesh == 3) CHECK(colours.size() > 64);
       CHECK(maxAbs(expected) > 0.0);
     }
 }

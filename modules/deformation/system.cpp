@@ -15,17 +15,22 @@ namespace {
 // A scatter colour's elements per chunk (a colour holds a tenth to a thirtieth of the
 // elements: small chunks keep both threads busy).
 constexpr int kColourGrain = 256;
+// Scatter groups of consecutive elements (RegularizedSystem::scatterGroups), and the fewest
+// groups per colour on average for which they are used instead of single elements.
+constexpr int kScatterGroup = 256;
+constexpr int kGroupsPerColour = 4;
 constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
 
-// Adds the shares L_k^T tau_k of the elements `ids[0..count)` to the rows of b, with
-// tau_k = w_k v_k + sum_(facets kl) w_kl (v_k - v_l) for v = t, or v = F - t (Residual). The
-// elements share no unknown (one scatter colour), so concurrent calls on disjoint ranges of one
-// colour do not race. R rows, C columns and U local unknowns per element: known at compile time
-// for the separable layouts (> 0), else `r`, `c`, `u` at run time.
+// Adds the shares L_k^T tau_k of the elements `ids[0..count)` (or, without ids, the elements
+// first .. first + count - 1) to the rows of b, one after the other, with
+// tau_k = w_k v_k + sum_(facets kl) w_kl (v_k - v_l) for v = t, or v = F - t (Residual).
+// Concurrent calls on element sets that share no unknown (one scatter colour) do not race. R rows,
+// C columns and U local unknowns per element: known at compile time for the separable layouts (>
+// 0), else `r`, `c`, `u` at run time.
 template <int R, int C, int U, bool Residual>
 void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* F,
-                   const Regularizer& reg, int r_, int c_, int u_, const int* ids, int count,
-                   Eigen::MatrixXd& b) {
+                   const Regularizer& reg, int r_, int c_, int u_, const int* ids, int first,
+                   int count, Eigen::MatrixXd& b) {
   const int r = R > 0 ? R : r_, c = C > 0 ? C : c_, u = U > 0 ? U : u_;
   const ResidualModel::Operators L = model.operators();
   const Eigen::VectorXd& wk = reg.elementWeight();
@@ -35,7 +40,7 @@ void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* 
   };
   double tau[kMaxBlock];  // [col][a]
   for (int i = 0; i < count; ++i) {
-    const int k = ids[i];
+    const int k = ids ? ids[i] : first + i;
     const Eigen::Index row = static_cast<Eigen::Index>(k) * r;
     const double w = wk(k);
     for (int col = 0; col < c; ++col)
@@ -63,12 +68,12 @@ void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* 
 
 template <int R, int C, int U>
 void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* F,
-                   const Regularizer& reg, int r, int c, int u, const int* ids, int count,
-                   Eigen::MatrixXd& b) {
+                   const Regularizer& reg, int r, int c, int u, const int* ids, int first,
+                   int count, Eigen::MatrixXd& b) {
   if (F)
-    scatterShares<R, C, U, true>(model, t, F, reg, r, c, u, ids, count, b);
+    scatterShares<R, C, U, true>(model, t, F, reg, r, c, u, ids, first, count, b);
   else
-    scatterShares<R, C, U, false>(model, t, F, reg, r, c, u, ids, count, b);
+    scatterShares<R, C, U, false>(model, t, F, reg, r, c, u, ids, first, count, b);
 }
 
 }  // namespace
@@ -111,11 +116,51 @@ void RegularizedSystem::buildTopology() {
       const int at = fill[model_.unknown(k, j)]++;
       incidence_[at] = k * u + j;
     }
-  // Scatter colours: greedily, the smallest colour that no element sharing an unknown with k
-  // has yet (about 10 on triangle meshes, 25-35 on tets). The first 64 colours are tracked as a
-  // bit mask per unknown; an element that finds them all taken scans its neighbours' colours.
-  std::vector<int> colour(static_cast<size_t>(m), -1), counts;
+  // Scatter colours of groups of kScatterGroup consecutive elements, greedily: the smallest
+  // colour (of 64, a bit mask per unknown) that no group sharing an unknown has yet. Used when
+  // the groups are compact enough to leave kGroupsPerColour groups per colour on average.
+  const int groups = (m + kScatterGroup - 1) / kScatterGroup;
   std::vector<std::uint64_t> used(static_cast<size_t>(N), 0);
+  {
+    std::vector<int> groupColour(static_cast<size_t>(groups));
+    int colours = 0;
+    bool fits = true;
+    for (int q = 0; q < groups && fits; ++q) {
+      const int first = q * kScatterGroup, last = std::min(m, first + kScatterGroup);
+      std::uint64_t taken = 0;
+      for (int k = first; k < last; ++k)
+        for (int j = 0; j < u; ++j) taken |= used[static_cast<size_t>(model_.unknown(k, j))];
+      if (~taken == 0) {
+        fits = false;
+        break;
+      }
+      int c = 0;
+      while (taken & (std::uint64_t{1} << c)) ++c;
+      for (int k = first; k < last; ++k)
+        for (int j = 0; j < u; ++j)
+          used[static_cast<size_t>(model_.unknown(k, j))] |= std::uint64_t{1} << c;
+      groupColour[static_cast<size_t>(q)] = c;
+      colours = std::max(colours, c + 1);
+    }
+    if (fits && colours * kGroupsPerColour <= groups) {
+      scatterGroup_ = kScatterGroup;
+      scatterStart_.assign(static_cast<size_t>(colours) + 1, 0);
+      for (int c : groupColour) ++scatterStart_[static_cast<size_t>(c) + 1];
+      for (int c = 0; c < colours; ++c) scatterStart_[c + 1] += scatterStart_[c];
+      scatterOrder_.resize(static_cast<size_t>(groups));
+      std::vector<int> next(scatterStart_.begin(), scatterStart_.end() - 1);
+      for (int q = 0; q < groups; ++q)
+        scatterOrder_[static_cast<size_t>(next[groupColour[static_cast<size_t>(q)]]++)] = q;
+      return;
+    }
+    std::fill(used.begin(), used.end(), 0);
+  }
+  scatterGroup_ = 1;
+  // Otherwise scatter colours of single elements: greedily, the smallest colour that no element
+  // sharing an unknown with k has yet (about 10 on triangle meshes, 25-35 on tets). The first 64
+  // colours are tracked as a bit mask per unknown; an element that finds them all taken scans its
+  // neighbours' colours.
+  std::vector<int> colour(static_cast<size_t>(m), -1), counts;
   std::vector<int> stamp;
   for (int k = 0; k < m; ++k) {
     std::uint64_t taken = 0;
@@ -258,11 +303,20 @@ void RegularizedSystem::residualGradient(const Stacked& F, const Stacked& t, Eig
   zeroFixed(g);
 }
 
-std::vector<std::vector<int>> RegularizedSystem::scatterColours() const {
-  std::vector<std::vector<int>> colours;
+std::vector<std::vector<std::vector<int>>> RegularizedSystem::scatterGroups() const {
+  const int m = model_.discretization().numElements();
+  std::vector<std::vector<std::vector<int>>> colours(scatterStart_.size() - 1);
   for (size_t c = 0; c + 1 < scatterStart_.size(); ++c)
-    colours.emplace_back(scatterOrder_.begin() + scatterStart_[c],
-                         scatterOrder_.begin() + scatterStart_[c + 1]);
+    for (int at = scatterStart_[c]; at < scatterStart_[c + 1]; ++at) {
+      const int q = scatterOrder_[static_cast<size_t>(at)];
+      std::vector<int>& group = colours[c].emplace_back();
+      if (scatterGroup_ == 1) {
+        group.push_back(q);
+        continue;
+      }
+      for (int k = q * scatterGroup_; k < std::min(m, (q + 1) * scatterGroup_); ++k)
+        group.push_back(k);
+    }
   return colours;
 }
 
@@ -273,18 +327,33 @@ void RegularizedSystem::applyC(const Stacked& t, const Stacked* F, Eigen::Matrix
   b.setZero();
   // Colour by colour, each element adds its share L_k^T tau_k straight into b: no array of all
   // shares (m u c doubles, 137 MiB at two million faces, the 1M-vertex session's peak).
+  const int m = model_.discretization().numElements();
+  // Calls scatterShares for the elements `ids[0..count)` or, without ids, first .. first + count.
+  const auto scatter = [&](const int* ids, int first, int count) {
+    if (!model_.coupled() && r == 3 && u == 3)
+      scatterShares<3, 3, 3>(model_, t, F, regularizer_, r, c, u, ids, first, count, b);
+    else if (!model_.coupled() && r == 3 && u == 4)
+      scatterShares<3, 3, 4>(model_, t, F, regularizer_, r, c, u, ids, first, count, b);
+    else if (!model_.coupled() && r == 2 && u == 3)
+      scatterShares<2, 2, 3>(model_, t, F, regularizer_, r, c, u, ids, first, count, b);
+    else
+      scatterShares<-1, -1, -1>(model_, t, F, regularizer_, r, c, u, ids, first, count, b);
+  };
   for (size_t colour = 0; colour + 1 < scatterStart_.size(); ++colour) {
     const int* ids = scatterOrder_.data() + scatterStart_[colour];
     const int count = scatterStart_[colour + 1] - scatterStart_[colour];
-    parallel::forChunks(count, kColourGrain, [&](int, int begin, int end) {
-      if (!model_.coupled() && r == 3 && u == 3)
-        scatterShares<3, 3, 3>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
-      else if (!model_.coupled() && r == 3 && u == 4)
-        scatterShares<3, 3, 4>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
-      else if (!model_.coupled() && r == 2 && u == 3)
-        scatterShares<2, 2, 3>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
-      else
-        scatterShares<-1, -1, -1>(model_, t, F, regularizer_, r, c, u, ids + begin, end - begin, b);
+    if (scatterGroup_ == 1) {
+      parallel::forChunks(count, kColourGrain,
+                          [&](int, int begin, int end) { scatter(ids + begin, 0, end - begin); });
+      continue;
+    }
+    // Each group's elements in storage order, one after the other: their neighbours' blocks
+    // are mostly the group's own, in cache.
+    parallel::forChunks(count, 1, [&](int, int begin, int end) {
+      for (int i = begin; i < end; ++i) {
+        const int first = ids[i] * scatterGroup_;
+        scatter(nullptr, first, std::min(m, first + scatterGroup_) - first);
+      }
     });
   }
 }
