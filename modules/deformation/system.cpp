@@ -76,6 +76,19 @@ void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* 
     scatterShares<R, C, U, false>(model, t, F, reg, r, c, u, ids, first, count, b);
 }
 
+// The items 0 .. colourOf.size() - 1 grouped by their colour (< colours), each colour's in
+// increasing order, as CSR: colour c's items are order[start[c] .. start[c + 1]).
+void byColour(const std::vector<int>& colourOf, int colours, std::vector<int>& start,
+              std::vector<int>& order) {
+  start.assign(static_cast<size_t>(colours) + 1, 0);
+  for (int c : colourOf) ++start[static_cast<size_t>(c) + 1];
+  for (int c = 0; c < colours; ++c) start[c + 1] += start[c];
+  order.resize(colourOf.size());
+  std::vector<int> next(start.begin(), start.end() - 1);
+  for (size_t i = 0; i < colourOf.size(); ++i)
+    order[static_cast<size_t>(next[static_cast<size_t>(colourOf[i])]++)] = static_cast<int>(i);
+}
+
 }  // namespace
 
 RegularizedSystem::RegularizedSystem(const ResidualModel& model, SolverBackend backend,
@@ -144,13 +157,7 @@ void RegularizedSystem::buildTopology() {
     }
     if (fits && colours * kGroupsPerColour <= groups) {
       scatterGroup_ = kScatterGroup;
-      scatterStart_.assign(static_cast<size_t>(colours) + 1, 0);
-      for (int c : groupColour) ++scatterStart_[static_cast<size_t>(c) + 1];
-      for (int c = 0; c < colours; ++c) scatterStart_[c + 1] += scatterStart_[c];
-      scatterOrder_.resize(static_cast<size_t>(groups));
-      std::vector<int> next(scatterStart_.begin(), scatterStart_.end() - 1);
-      for (int q = 0; q < groups; ++q)
-        scatterOrder_[static_cast<size_t>(next[groupColour[static_cast<size_t>(q)]]++)] = q;
+      byColour(groupColour, colours, scatterStart_, scatterOrder_);
       return;
     }
     std::fill(used.begin(), used.end(), 0);
@@ -187,11 +194,7 @@ void RegularizedSystem::buildTopology() {
     colour[static_cast<size_t>(k)] = c;
     ++counts[static_cast<size_t>(c)];
   }
-  scatterStart_.assign(counts.size() + 1, 0);
-  for (size_t c = 0; c < counts.size(); ++c) scatterStart_[c + 1] = scatterStart_[c] + counts[c];
-  scatterOrder_.resize(static_cast<size_t>(m));
-  std::vector<int> next(scatterStart_.begin(), scatterStart_.end() - 1);
-  for (int k = 0; k < m; ++k) scatterOrder_[next[colour[static_cast<size_t>(k)]]++] = k;
+  byColour(colour, static_cast<int>(counts.size()), scatterStart_, scatterOrder_);
 }
 
 // Column p of A couples p with every unknown of the elements that touch p and, with the
