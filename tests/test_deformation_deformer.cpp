@@ -21,6 +21,14 @@ namespace {
 
 double maxAbs(const Eigen::MatrixXd& X) { return X.cwiseAbs().maxCoeff(); }
 
+// `disc` with its elements in a random order (a mesh written with no spatial order).
+Discretization scrambledCopy(const Discretization& disc, unsigned seed) {
+  std::vector<int> order(static_cast<size_t>(disc.numElements()));
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), std::mt19937(seed));
+  return disc.withElementOrder(order);
+}
+
 // Every regularization setting of the tests: none, uniform 0.5, nonuniform bump (peak 0.8).
 void applyMode(DeformationSession& s, Regularization mode, const Eigen::VectorXd& weights) {
   s.setRegularization(mode, 0.5, weights);
@@ -213,12 +221,8 @@ TEST_CASE("C t added colour by colour in parallel equals the serial sum over the
   meshes.push_back(std::make_unique<Discretization>(makeRectangle(4.0, 1.0, 120, 30)));
   meshes.push_back(std::make_unique<Discretization>(makeSphere(1.0, 96, 48)));
   meshes.push_back(std::make_unique<Discretization>(makeTetBox(4.0, 1.0, 1.0, 24, 6, 6)));
-  for (size_t i = 1; i < 3; ++i) {
-    std::vector<int> order(static_cast<size_t>(meshes[i]->numElements()));
-    std::iota(order.begin(), order.end(), 0);
-    std::shuffle(order.begin(), order.end(), std::mt19937(3));
-    meshes.push_back(std::make_unique<Discretization>(meshes[i]->withElementOrder(order)));
-  }
+  for (size_t i = 1; i < 3; ++i)
+    meshes.push_back(std::make_unique<Discretization>(scrambledCopy(*meshes[i], 3)));
   const std::vector<bool> grouped = {true, true, true, false, false};
   for (size_t mesh = 0; mesh < meshes.size(); ++mesh)
     for (Energy energy : {Energy::Arap, Energy::Asap}) {
@@ -488,10 +492,7 @@ TEST_CASE(
                                     makeTetBox(4.0, 1.0, 1.0, 24, 6, 6)};
   for (const Mesh& mesh : meshes) {
     const Discretization ordered(mesh);
-    std::vector<int> order(static_cast<size_t>(ordered.numElements()));
-    std::iota(order.begin(), order.end(), 0);
-    std::shuffle(order.begin(), order.end(), std::mt19937(5));
-    const Discretization scrambled = ordered.withElementOrder(order);
+    const Discretization scrambled = scrambledCopy(ordered, 5);
     const Discretization sorted = scrambled.withElementOrder(mortonElementOrder(scrambled));
     INFO(toString(ordered.kind()));
     REQUIRE(localityElementOrder(ordered).empty());
