@@ -1,5 +1,7 @@
 #include <diffreg/solver/solver.h>
 
+#include <diffreg/solver/blas_threads.h>
+
 #include <diffreg/core/error.h>
 #include <diffreg/core/timer.h>
 
@@ -8,6 +10,7 @@
 #include <cholmod.h>
 #endif
 #include <algorithm>
+#include <optional>
 #include <string>
 
 namespace diffreg {
@@ -182,6 +185,9 @@ struct SpdSolver::Impl {
 #ifdef DIFFREG_HAVE_CHOLMOD
     if (backend == SolverBackend::Cholmod) {
       cholmod_sparse a = viewOf(A);
+      // Supernodal factors are the only work here that threaded BLAS speeds up.
+      std::optional<BlasThreadScope> threads;
+      if (factor->is_super) threads.emplace();
       const int ok = cholmod_factorize(&a, factor, &common);
       return ok && common.status == CHOLMOD_OK && factor->minor == factor->n;
     }
@@ -201,6 +207,8 @@ struct SpdSolver::Impl {
       b.x = const_cast<double*>(B.data());
       b.xtype = CHOLMOD_REAL;
       b.dtype = CHOLMOD_DOUBLE;
+      std::optional<BlasThreadScope> threads;
+      if (factor->is_super) threads.emplace();
       if (!cholmod_solve2(CHOLMOD_A, factor, &b, nullptr, &x, nullptr, &y, &e, &common))
         throw SingularSystem("solver: CHOLMOD's solve failed (status " +
                              std::to_string(common.status) + ")");

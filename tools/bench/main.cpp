@@ -5,6 +5,7 @@
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
 #include <diffreg/core/timer.h>
+#include <diffreg/solver/blas_threads.h>
 #include <diffreg/solver/solver.h>
 
 #include <sys/resource.h>
@@ -110,6 +111,10 @@ nlohmann::json machineFacts() {
   m["blas_mapped"] = mappedLibraries({"blas", "lapack"});
   const char* threads = std::getenv("OPENBLAS_NUM_THREADS");
   m["openblas_num_threads"] = threads ? threads : "unset";
+  m["blas_threads"] = diffreg::blasThreadsReserved()
+                          ? "1, and " + std::to_string(diffreg::blasScopeThreads()) +
+                                " for supernodal factors"
+                          : std::to_string(diffreg::blasThreads());
   m["compiler"] = std::string("GCC ") + __VERSION__;
 #ifdef NDEBUG
   m["build"] = "optimized (NDEBUG)";
@@ -739,6 +744,8 @@ int run(const Options& options) {
 
 int main(int argc, char** argv) {
   using namespace diffreg::bench;
+  // As the diffreg tool runs the library: BLAS threads only for supernodal factors.
+  diffreg::reserveBlasThreads();
   Options options;
   bool repeatsGiven = false;
   try {

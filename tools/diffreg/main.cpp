@@ -16,6 +16,7 @@
 #include <diffreg/mesh/io.h>
 #include <diffreg/pipeline/mlx.h>
 #include <diffreg/pipeline/pipeline.h>
+#include <diffreg/solver/blas_threads.h>
 #include "plugins.h"
 #include "resolution.h"
 
@@ -246,6 +247,8 @@ void printError(const std::string& message) {
 }  // namespace diffreg
 
 int main(int argc, char** argv) {
+  // The element loops use every core; BLAS threads only for supernodal factors.
+  diffreg::reserveBlasThreads();
   try {
     return diffreg::run(argc, argv);
   } catch (const diffreg::UsageError& e) {
