@@ -3,14 +3,15 @@
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
 #include <diffreg/core/log.h>
+#include <diffreg/solver/blas_threads.h>
 
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <iostream>
 #include <iomanip>
+#include <iostream>
 #include <sstream>
 
 #include <unistd.h>
@@ -23,6 +24,37 @@ std::string join(const std::vector<std::string>& items, const char* separator) {
   std::string out;
   for (size_t i = 0; i < items.size(); ++i) out += (i ? separator : "") + items[i];
   return out;
+}
+
+namespace {
+
+/// Prints the one error line, with any line breaks in `message` folded into spaces.
+void printError(const std::string& message) {
+  std::string line = message;
+  for (char& c : line)
+    if (c == '\n' || c == '\r') c = ' ';
+  std::cerr << "diffreg: error: " << line << std::endl;
+}
+
+}  // namespace
+
+int runCommand(const std::function<int()>& body, const std::function<std::string()>& context) {
+  reserveBlasThreads();
+  try {
+    return body();
+  } catch (const UsageError& e) {
+    printError(e.what());
+    return 2;
+  } catch (const boost::program_options::error& e) {
+    printError(e.what());
+    return 2;
+  } catch (const std::bad_alloc&) {
+    printError("out of memory (" + context() + ")");
+    return 1;
+  } catch (const std::exception& e) {
+    printError(e.what());
+    return 1;
+  }
 }
 
 bool parseCommandLine(int argc, char** argv, const char* usage,
@@ -189,8 +221,8 @@ std::vector<std::string> checkTableOutputs(const boost::program_options::variabl
         if (canonicalTarget(other) == canonicalTarget(path))
           throw UsageError(command + ": output '" + path + "' given twice");
       outputs.push_back(path);
-      checkOutputTarget(path, key == std::string("output") ? kPictureExtensions
-                                                           : std::vector<std::string>{});
+      checkOutputTarget(
+          path, key == std::string("output") ? kPictureExtensions : std::vector<std::string>{});
     }
   return outputs;
 }

@@ -28,6 +28,12 @@ struct UsageError : std::runtime_error {
 
 std::string join(const std::vector<std::string>& items, const char* separator);
 
+/// The main() of a diffreg executable: keeps the BLAS's threads for supernodal factors (the
+/// element loops use every core), runs `body` and turns what it throws into one line
+/// "diffreg: error: ..." on stderr. Returns body's exit code, 2 for a UsageError or a bad
+/// option, else 1; an out-of-memory error names `context()` (say, the input being worked on).
+int runCommand(const std::function<int()>& body, const std::function<std::string()>& context);
+
 /// Parses a command's options into `vm`. With --help prints `usage` and the options and returns
 /// false (nothing else to do); applies --quiet when the options have it.
 bool parseCommandLine(int argc, char** argv, const char* usage,

@@ -7,16 +7,14 @@
 // happens before any work; output files appear only when everything succeeded. Errors print
 // one line "diffreg: error: ..." on stderr; the exit code is 2 for usage errors, else 1.
 
-#include "cli.h"
-#include "compare.h"
-#include "serve.h"
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
 #include <diffreg/core/timer.h>
 #include <diffreg/mesh/io.h>
 #include <diffreg/pipeline/mlx.h>
 #include <diffreg/pipeline/pipeline.h>
-#include <diffreg/solver/blas_threads.h>
+#include "cli.h"
+#include "compare.h"
 #include "plugins.h"
 #include "resolution.h"
 
@@ -43,7 +41,6 @@ namespace fs = std::filesystem;
 
 namespace diffreg {
 namespace {
-
 
 const char* kUsage =
     "Usage: diffreg -i IN [--handles H.json] [-s SCRIPT.mlx] [--filter 'NAME key=value ...']...\n"
@@ -171,6 +168,23 @@ int runPipeline(const po::variables_map& vm) {
   return 0;
 }
 
+// `diffreg serve ...` is the executable diffreg-serve beside this one, started in this
+// process's place: the HTTP server and the libraries it links are loaded only by it.
+int runServe(int argc, char** argv) {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  const std::string tool =
+      ((ec ? fs::path(argv[0]) : self).parent_path() / "diffreg-serve").string();
+  std::vector<std::string> args = {tool};
+  for (int i = 1; i < argc; ++i) args.emplace_back(argv[i]);
+  std::vector<char*> pointers;
+  for (std::string& a : args) pointers.push_back(a.data());
+  pointers.push_back(nullptr);
+  ::execv(tool.c_str(), pointers.data());
+  throw IoError("serve: cannot run '" + tool + "': " + std::strerror(errno) +
+                " (the editor is the executable diffreg-serve, installed beside diffreg)");
+}
+
 int run(int argc, char** argv) {
   if (argc > 1 && std::string(argv[1]) == "compare") return runCompare(argc - 1, argv + 1);
   if (argc > 1 && std::string(argv[1]) == "serve") return runServe(argc - 1, argv + 1);
@@ -182,14 +196,14 @@ int run(int argc, char** argv) {
       ("input,i", po::value<std::string>(), "input mesh (obj, off, ply, om, mesh, node/ele)")  //
       ("output,o", po::value<std::vector<std::string>>()->composing(),
        "output mesh; the extension picks the format; repeat for several")  //
-      ("handles", po::value<std::string>(), "handle file (JSON)")                              //
+      ("handles", po::value<std::string>(), "handle file (JSON)")          //
       ("filter,f", po::value<std::vector<std::string>>()->composing(),
        "'NAME key=value ...': a filter to apply; repeat for a chain, applied in order")  //
       ("report,r", po::value<std::string>(), "write a JSON report of the run")           //
       ("script,s", po::value<std::string>(),
-       "MeshLab .mlx filter script: its filters run first, then any --filter ones")  //
+       "MeshLab .mlx filter script: its filters run first, then any --filter ones")      //
       ("mlx", po::bool_switch(), "with 'filters': print a MeshLab .mlx script instead")  //
-      ("quiet,q", po::bool_switch(), "no warnings or progress on stderr")  //
+      ("quiet,q", po::bool_switch(), "no warnings or progress on stderr")                //
       ("progress-after", po::value<double>()->default_value(1.0, "1"),
        "seconds of work before iterations are reported on stderr");
   po::options_description hidden;
@@ -235,33 +249,9 @@ std::string workingOn() {
                              : "while working on '" + inputName() + "'";
 }
 
-/// Prints the one error line, with any line breaks in `message` folded into spaces.
-void printError(const std::string& message) {
-  std::string line = message;
-  for (char& c : line)
-    if (c == '\n' || c == '\r') c = ' ';
-  std::cerr << "diffreg: error: " << line << std::endl;
-}
-
 }  // namespace
 }  // namespace diffreg
 
 int main(int argc, char** argv) {
-  // The element loops use every core; BLAS threads only for supernodal factors.
-  diffreg::reserveBlasThreads();
-  try {
-    return diffreg::run(argc, argv);
-  } catch (const diffreg::UsageError& e) {
-    diffreg::printError(e.what());
-    return 2;
-  } catch (const po::error& e) {
-    diffreg::printError(e.what());
-    return 2;
-  } catch (const std::bad_alloc&) {
-    diffreg::printError("out of memory (" + diffreg::workingOn() + ")");
-    return 1;
-  } catch (const std::exception& e) {
-    diffreg::printError(e.what());
-    return 1;
-  }
+  return diffreg::runCommand([&] { return diffreg::run(argc, argv); }, diffreg::workingOn);
 }

@@ -1,24 +1,32 @@
-#include "serve.h"
+// diffreg-serve: interactive editing in the browser, run as `diffreg serve ...` (which starts
+// this executable from beside it) or directly. Its own executable so that the HTTP server and
+// the TLS and compression libraries it links are loaded only here, not by every diffreg run.
+//
+//   diffreg-serve -i MESH [--handles H.json] [--port P] [--web DIR] [--quiet]
+//
+// Loads the mesh, serves the editing page and its JSON API on 127.0.0.1 (port 0: a free
+// port), prints the address on stdout and serves until SIGINT or SIGTERM. Errors print one line
+// "diffreg: error: ..." on stderr; the exit code is 2 for usage errors, else 1.
 
-#include "cli.h"
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
 #include <diffreg/handles/handles.h>
 #include <diffreg/mesh/io.h>
 #include <diffreg/serve/api.h>
 #include <diffreg/serve/server.h>
+#include "cli.h"
 
 #include <boost/program_options.hpp>
 
-#include <chrono>
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
+#include <future>
 #include <iostream>
 #include <memory>
 #include <string>
-#include <future>
 #include <thread>
 
 #include <unistd.h>
@@ -62,8 +70,6 @@ void waitForStop() {
   while (::read(stopPipe[0], &c, 1) < 0 && errno == EINTR) {
   }
 }
-
-}  // namespace
 
 int runServe(int argc, char** argv) {
   po::options_description visible("Options");
@@ -120,4 +126,13 @@ int runServe(int argc, char** argv) {
   return 0;
 }
 
+}  // namespace
 }  // namespace diffreg
+
+int main(int argc, char** argv) {
+  std::string input = "before reading any input";
+  for (int i = 1; i + 1 < argc; ++i)
+    if (std::string(argv[i]) == "-i" || std::string(argv[i]) == "--input")
+      input = std::string("while working on '") + argv[i + 1] + "'";
+  return diffreg::runCommand([&] { return diffreg::runServe(argc, argv); }, [&] { return input; });
+}
