@@ -7,8 +7,10 @@
 
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
-#include <map>
 #include <cmath>
+#include <map>
+#include <thread>
+#include <vector>
 
 using namespace diffreg;
 
@@ -59,8 +61,28 @@ TEST_CASE("K annihilates constants and its rows sum to zero", "[discretization]"
   }
 }
 
+TEST_CASE("K is assembled once, on first use, the same on every thread and in every copy",
+          "[discretization]") {
+  for (const Mesh& mesh :
+       {makeRectangle(3, 2, 30, 20), makeSphere(1, 24, 16), makeTetBox(2, 1, 1, 8, 4, 4)}) {
+    const Discretization d(mesh);
+    const Discretization copy = d;  // before K exists
+    std::vector<const SparseMatrix*> seen(4, nullptr);
+    std::vector<std::thread> threads;
+    for (size_t i = 0; i < seen.size(); ++i)
+      threads.emplace_back([&, i] { seen[i] = &(i % 2 ? copy : d).stiffness(); });
+    for (std::thread& t : threads) t.join();
+    for (const SparseMatrix* K : seen) CHECK(K == &d.stiffness());
+    // The same matrix as a discretization of the same mesh asked on one thread, bit for bit.
+    const Discretization fresh(mesh);
+    CHECK(d.stiffness().isApprox(fresh.stiffness(), 0.0));
+    CHECK(d.stiffness().nonZeros() == fresh.stiffness().nonZeros());
+  }
+}
+
 TEST_CASE("K reproduces linear functions at interior vertices", "[discretization]") {
-  for (const Mesh& mesh : {makeRectangle(3, 2, 6, 4), makeDisc(1, 5), makeTetBox(2, 1, 1, 4, 2, 2)}) {
+  for (const Mesh& mesh :
+       {makeRectangle(3, 2, 6, 4), makeDisc(1, 5), makeTetBox(2, 1, 1, 4, 2, 2)}) {
     const Discretization d(mesh);
     const std::vector<bool> boundary = boundaryVertices(d);
     Eigen::VectorXd f(d.numVertices());
@@ -93,8 +115,8 @@ TEST_CASE("Element measures and lumped mass add up to the area or volume", "[dis
 
 TEST_CASE("The rest deformation gradient is the identity or the tangent projector",
           "[discretization]") {
-  for (const Mesh& mesh : {makeRectangle(3, 2, 3, 2), makeCylinder(1, 2, 10, 3),
-                           makeTetBox(1, 1, 1, 2, 2, 2)}) {
+  for (const Mesh& mesh :
+       {makeRectangle(3, 2, 3, 2), makeCylinder(1, 2, 10, 3), makeTetBox(1, 1, 1, 2, 2, 2)}) {
     const Discretization d(mesh);
     for (int e = 0; e < d.numElements(); ++e) {
       const Eigen::MatrixXd F = restGradient(d, e);
@@ -138,8 +160,7 @@ TEST_CASE("K equals the textbook cotangent formula on a triangle pair", "[discre
   CHECK(d.facets()[0].size == 2);
 }
 
-TEST_CASE("Facets: interior edges for triangles, interior triangles for tets",
-          "[discretization]") {
+TEST_CASE("Facets: interior edges for triangles, interior triangles for tets", "[discretization]") {
   const Discretization rect(makeRectangle(2, 1, 2, 1));
   // 2 cells x 4 triangles: 8 faces; edges: interior = (3 * 8 - boundary 6) / 2 = 9.
   CHECK(rect.facets().size() == 9);

@@ -163,8 +163,6 @@ void Discretization::buildElements(const Eigen::MatrixXd& P3, double tinyMeasure
   measures_.resize(m);
   grads_.resize(static_cast<Eigen::Index>(m) * K, dim_);
   if (kind_ == MeshKind::Surface) normals_.resize(m, 3);
-  std::vector<Eigen::Triplet<double>> kTriplets;
-  kTriplets.reserve(static_cast<size_t>(m) * K * K);
   mass_ = Eigen::VectorXd::Zero(n);
   Eigen::Matrix<double, 3, K - 1> E;
   Eigen::Matrix<double, K, 3> g;
@@ -190,16 +188,35 @@ void Discretization::buildElements(const Eigen::MatrixXd& P3, double tinyMeasure
     g.row(0) = -g.template bottomRows<K - 1>().colwise().sum();
     grads_.block(static_cast<Eigen::Index>(e) * K, 0, K, dim_) = g.leftCols(dim_);
     measures_(e) = measure;
-    const Eigen::Matrix<double, K, K> Ke = measure * g * g.transpose();
-    for (int i = 0; i < K; ++i) {
-      mass_(elements_(e, i)) += measure / K;
-      for (int j = 0; j < K; ++j)
-        kTriplets.emplace_back(elements_(e, i), elements_(e, j), Ke(i, j));
-    }
+    for (int i = 0; i < K; ++i) mass_(elements_(e, i)) += measure / K;
   }
-  K_.resize(n, n);
-  K_.setFromTriplets(kTriplets.begin(), kTriplets.end());
-  K_.makeCompressed();
+}
+
+// K from the stored gradients. A planar element's gradients have a zero third column, so the
+// 3-column products are the ones the gradients were computed with.
+template <int K>
+SparseMatrix Discretization::assembleStiffness() const {
+  const int n = numVertices(), m = numElements();
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(static_cast<size_t>(m) * K * K);
+  Eigen::Matrix<double, K, 3> g = Eigen::Matrix<double, K, 3>::Zero();
+  for (int e = 0; e < m; ++e) {
+    g.leftCols(dim_) = grads_.block(static_cast<Eigen::Index>(e) * K, 0, K, dim_);
+    const Eigen::Matrix<double, K, K> Ke = measures_(e) * g * g.transpose();
+    for (int i = 0; i < K; ++i)
+      for (int j = 0; j < K; ++j) triplets.emplace_back(elements_(e, i), elements_(e, j), Ke(i, j));
+  }
+  SparseMatrix stiffness(n, n);
+  stiffness.setFromTriplets(triplets.begin(), triplets.end());
+  stiffness.makeCompressed();
+  return stiffness;
+}
+
+const SparseMatrix& Discretization::stiffness() const {
+  Stiffness& s = *stiffness_;
+  std::call_once(
+      s.once, [&] { s.K = elementSize() == 4 ? assembleStiffness<4>() : assembleStiffness<3>(); });
+  return s.K;
 }
 
 // Referenced vertices, components and the bounding box of the referenced vertices.
@@ -281,7 +298,10 @@ Discretization Discretization::withElementOrder(const std::vector<int>& order) c
     f.k = position[static_cast<size_t>(f.k)];
     f.l = position[static_cast<size_t>(f.l)];
   }
-  copy.K_ = K_;
+  // Assembled in this order before it is shared: in the copy's order the sums would round
+  // differently, and which of the two asked first would decide K's last bits.
+  stiffness();
+  copy.stiffness_ = stiffness_;
   copy.mass_ = mass_;
   copy.active_ = active_;
   copy.component_ = component_;

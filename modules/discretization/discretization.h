@@ -9,6 +9,8 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <array>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace diffreg {
@@ -68,8 +70,10 @@ class Discretization {
 
   /// Interior facets with their weights c_kl (physical units).
   const std::vector<Facet>& facets() const { return facets_; }
-  /// Cotangent stiffness K = sum_e a_e G_e G_e^T (n x n, positive semidefinite).
-  const SparseMatrix& stiffness() const { return K_; }
+  /// Cotangent stiffness K = sum_e a_e G_e G_e^T (n x n, positive semidefinite). Assembled on
+  /// the first call (the weights need it, a deformation does not), once, safely from any
+  /// thread; copies made by withElementOrder() share it.
+  const SparseMatrix& stiffness() const;
   /// Barycentric lumped mass (a_e / 3 or a_e / 4 to each vertex).
   const Eigen::VectorXd& lumpedMass() const { return mass_; }
 
@@ -98,6 +102,8 @@ class Discretization {
              const TriMesh* topology);
   template <int K>
   void buildElements(const Eigen::MatrixXd& P3, double tinyMeasure);
+  template <int K>
+  SparseMatrix assembleStiffness() const;
   void buildComponents(const Eigen::MatrixXd& P3);
 
   MeshKind kind_ = MeshKind::Surface;
@@ -108,7 +114,11 @@ class Discretization {
   Eigen::MatrixXd grads_;
   Eigen::MatrixXd normals_;
   std::vector<Facet> facets_;
-  SparseMatrix K_;
+  struct Stiffness {
+    std::once_flag once;
+    SparseMatrix K;
+  };
+  std::shared_ptr<Stiffness> stiffness_ = std::make_shared<Stiffness>();
   Eigen::VectorXd mass_;
   std::vector<bool> active_;
   std::vector<int> component_;
