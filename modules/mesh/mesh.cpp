@@ -50,38 +50,38 @@ const char* toString(MeshKind kind) {
   return "unknown";
 }
 
-Mesh::Mesh(TriMesh tri) : tri_(std::move(tri)) {
+Mesh::Mesh(TriMesh tri) : tri_(tri) {
   double lo[3], hi[3];
   for (int c = 0; c < 3; ++c) {
     lo[c] = std::numeric_limits<double>::infinity();
     hi[c] = -lo[c];
   }
-  for (auto v : tri_.vertices()) {
-    const auto& p = tri_.point(v);
+  for (auto v : tri_->vertices()) {
+    const auto& p = tri_->point(v);
     for (int c = 0; c < 3; ++c) {
       lo[c] = std::min(lo[c], p[c]);
       hi[c] = std::max(hi[c], p[c]);
     }
   }
   kind_ = MeshKind::Surface;
-  if (tri_.n_vertices() > 0) {
+  if (tri_->n_vertices() > 0) {
     double diag2 = 0.0;
     for (int c = 0; c < 3; ++c) diag2 += (hi[c] - lo[c]) * (hi[c] - lo[c]);
     const double spread = hi[2] - lo[2];
     if (spread == 0.0 || spread <= 1e-12 * std::sqrt(diag2)) kind_ = MeshKind::Planar;
   }
-  collectDoubleProps(tri_.vprops_begin(), tri_.vprops_end(), vertexNames_);
-  collectDoubleProps(tri_.fprops_begin(), tri_.fprops_end(), elementNames_);
+  collectDoubleProps(tri_->vprops_begin(), tri_->vprops_end(), vertexNames_);
+  collectDoubleProps(tri_->fprops_begin(), tri_->fprops_end(), elementNames_);
 }
 
 Mesh::Mesh(TetMesh tet) : kind_(MeshKind::Tet), tet_(std::move(tet)) {}
 
 int Mesh::numVertices() const {
-  return isTet() ? static_cast<int>(tet_.points.size()) : static_cast<int>(tri_.n_vertices());
+  return isTet() ? static_cast<int>(tet_.points.size()) : static_cast<int>(tri_->n_vertices());
 }
 
 int Mesh::numElements() const {
-  return isTet() ? static_cast<int>(tet_.tets.size()) : static_cast<int>(tri_.n_faces());
+  return isTet() ? static_cast<int>(tet_.tets.size()) : static_cast<int>(tri_->n_faces());
 }
 
 Eigen::MatrixXd Mesh::positions() const {
@@ -91,7 +91,7 @@ Eigen::MatrixXd Mesh::positions() const {
     if (isTet()) {
       p.row(i) = tet_.points[i].transpose();
     } else {
-      const auto& q = tri_.point(tri_.vertex_handle(i));
+      const auto& q = tri_->point(tri_->vertex_handle(i));
       p.row(i) << q[0], q[1], q[2];
     }
   }
@@ -112,7 +112,7 @@ void Mesh::setPositions(const Eigen::MatrixXd& positions) {
     if (isTet()) {
       tet_.points[i] = positions.row(i).transpose();
     } else {
-      auto& q = tri_.point(tri_.vertex_handle(i));
+      auto& q = tri_->point(tri_->vertex_handle(i));
       q[0] = positions(i, 0);
       q[1] = positions(i, 1);
       if (!planarXY) q[2] = positions(i, 2);
@@ -127,9 +127,9 @@ Eigen::MatrixXi Mesh::elements() const {
     for (int k = 0; k < m; ++k)
       for (int j = 0; j < 4; ++j) e(k, j) = tet_.tets[k][j];
   } else {
-    for (auto f : tri_.faces()) {
+    for (auto f : tri_->faces()) {
       int j = 0;
-      for (auto v : tri_.fv_range(f)) e(f.idx(), j++) = v.idx();
+      for (auto v : tri_->fv_range(f)) e(f.idx(), j++) = v.idx();
     }
   }
   return e;
@@ -142,7 +142,7 @@ std::vector<bool> Mesh::referenced() const {
       for (int v : t)
         if (v >= 0 && v < numVertices()) used[v] = true;
   } else {
-    for (auto v : tri_.vertices()) used[v.idx()] = !tri_.is_isolated(v);
+    for (auto v : tri_->vertices()) used[v.idx()] = !tri_->is_isolated(v);
   }
   return used;
 }
@@ -150,7 +150,7 @@ std::vector<bool> Mesh::referenced() const {
 bool Mesh::hasVertexScalar(const std::string& name) const {
   if (isTet()) return tetVertexProps_.count(name) > 0;
   VProp h;
-  return tri_.get_property_handle(h, name);
+  return tri_->get_property_handle(h, name);
 }
 
 Eigen::VectorXd Mesh::vertexScalar(const std::string& name) const {
@@ -160,11 +160,11 @@ Eigen::VectorXd Mesh::vertexScalar(const std::string& name) const {
     return it->second;
   }
   VProp h;
-  if (!tri_.get_property_handle(h, name)) {
+  if (!tri_->get_property_handle(h, name)) {
     throw MissingProperty("no vertex property '" + name + "'");
   }
   Eigen::VectorXd values(numVertices());
-  for (auto v : tri_.vertices()) values[v.idx()] = tri_.property(h, v);
+  for (auto v : tri_->vertices()) values[v.idx()] = tri_->property(h, v);
   return values;
 }
 
@@ -176,17 +176,17 @@ void Mesh::setVertexScalar(const std::string& name, const Eigen::VectorXd& value
     return;
   }
   VProp h;
-  if (!tri_.get_property_handle(h, name)) {
-    tri_.add_property(h, name);
-    tri_.property(h).set_persistent(true);
+  if (!tri_->get_property_handle(h, name)) {
+    tri_->add_property(h, name);
+    tri_->property(h).set_persistent(true);
   }
-  for (auto v : tri_.vertices()) tri_.property(h, v) = values[v.idx()];
+  for (auto v : tri_->vertices()) tri_->property(h, v) = values[v.idx()];
 }
 
 bool Mesh::hasElementScalar(const std::string& name) const {
   if (isTet()) return tetElementProps_.count(name) > 0;
   FProp h;
-  return tri_.get_property_handle(h, name);
+  return tri_->get_property_handle(h, name);
 }
 
 Eigen::VectorXd Mesh::elementScalar(const std::string& name) const {
@@ -196,11 +196,11 @@ Eigen::VectorXd Mesh::elementScalar(const std::string& name) const {
     return it->second;
   }
   FProp h;
-  if (!tri_.get_property_handle(h, name)) {
+  if (!tri_->get_property_handle(h, name)) {
     throw MissingProperty("no element property '" + name + "'");
   }
   Eigen::VectorXd values(numElements());
-  for (auto f : tri_.faces()) values[f.idx()] = tri_.property(h, f);
+  for (auto f : tri_->faces()) values[f.idx()] = tri_->property(h, f);
   return values;
 }
 
@@ -212,11 +212,11 @@ void Mesh::setElementScalar(const std::string& name, const Eigen::VectorXd& valu
     return;
   }
   FProp h;
-  if (!tri_.get_property_handle(h, name)) {
-    tri_.add_property(h, name);
-    tri_.property(h).set_persistent(true);
+  if (!tri_->get_property_handle(h, name)) {
+    tri_->add_property(h, name);
+    tri_->property(h).set_persistent(true);
   }
-  for (auto f : tri_.faces()) tri_.property(h, f) = values[f.idx()];
+  for (auto f : tri_->faces()) tri_->property(h, f) = values[f.idx()];
 }
 
 std::vector<std::string> Mesh::vertexScalarNames() const { return vertexNames_; }

@@ -2,11 +2,12 @@
 // TetMesh for solids, and Mesh, which holds either one together with its named properties.
 #pragma once
 
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <Eigen/Core>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 
 #include <array>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -38,8 +39,35 @@ const char* toString(MeshKind kind);
 namespace prop {
 inline constexpr const char* weight = "diffreg:weight";          ///< vertex, regularization weight
 inline constexpr const char* distortion = "diffreg:distortion";  ///< element, D_k
-inline constexpr const char* smoothness = "diffreg:smoothness";  ///< element, max facet ||e_k-e_l||^2
+inline constexpr const char* smoothness =
+    "diffreg:smoothness";  ///< element, max facet ||e_k-e_l||^2
 }  // namespace prop
+
+/// A TriMesh on the heap with value semantics. OpenMesh's meshes declare destructors and so
+/// have no move operations: std::move copies them with every property. Held through this, a
+/// Mesh moves in O(1) (leaving an empty mesh behind) and still copies deeply.
+class TriMeshBox {
+ public:
+  TriMeshBox() : mesh_(std::make_unique<TriMesh>()) {}
+  explicit TriMeshBox(const TriMesh& mesh) : mesh_(std::make_unique<TriMesh>(mesh)) {}
+  TriMeshBox(const TriMeshBox& other) : mesh_(std::make_unique<TriMesh>(*other.mesh_)) {}
+  TriMeshBox(TriMeshBox&& other) : mesh_(std::make_unique<TriMesh>()) { mesh_.swap(other.mesh_); }
+  TriMeshBox& operator=(const TriMeshBox& other) {
+    if (this != &other) mesh_ = std::make_unique<TriMesh>(*other.mesh_);
+    return *this;
+  }
+  TriMeshBox& operator=(TriMeshBox&& other) {
+    mesh_.swap(other.mesh_);
+    return *this;
+  }
+  TriMesh& operator*() { return *mesh_; }
+  const TriMesh& operator*() const { return *mesh_; }
+  TriMesh* operator->() { return mesh_.get(); }
+  const TriMesh* operator->() const { return mesh_.get(); }
+
+ private:
+  std::unique_ptr<TriMesh> mesh_;
+};
 
 /// A planar, surface or tet mesh with named scalar properties per vertex and per element.
 /// For triangle meshes the properties live on the OpenMesh mesh itself (double vertex or face
@@ -53,8 +81,8 @@ class Mesh {
 
   MeshKind kind() const { return kind_; }
   bool isTet() const { return kind_ == MeshKind::Tet; }
-  TriMesh& tri() { return tri_; }
-  const TriMesh& tri() const { return tri_; }
+  TriMesh& tri() { return *tri_; }
+  const TriMesh& tri() const { return *tri_; }
   TetMesh& tet() { return tet_; }
   const TetMesh& tet() const { return tet_; }
 
@@ -86,7 +114,7 @@ class Mesh {
 
  private:
   MeshKind kind_ = MeshKind::Surface;
-  TriMesh tri_;
+  TriMeshBox tri_;
   TetMesh tet_;
   // Tet meshes keep their properties here; triangle meshes on the OpenMesh mesh.
   std::map<std::string, Eigen::VectorXd> tetVertexProps_, tetElementProps_;
