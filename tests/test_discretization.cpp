@@ -77,6 +77,9 @@ TEST_CASE("K is assembled once, on first use, the same on every thread and in ev
     const Discretization fresh(mesh);
     CHECK(d.stiffness().isApprox(fresh.stiffness(), 0.0));
     CHECK(d.stiffness().nonZeros() == fresh.stiffness().nonZeros());
+    Discretization moved(mesh), to = std::move(moved);
+    CHECK(moved.stiffness().nonZeros() == 0);  // moved from: empty, not a crash
+    CHECK(to.stiffness().isApprox(fresh.stiffness(), 0.0));
   }
 }
 

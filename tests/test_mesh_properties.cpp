@@ -152,3 +152,27 @@ TEST_CASE("tet meshes keep their properties in the Mesh", "[mesh]") {
   CHECK_THROWS_AS(tet.setVertexScalar("w", Eigen::VectorXd::Zero(5)), InvalidParameter);
   CHECK_THROWS_AS(tet.vertexScalar("none"), MissingProperty);
 }
+
+TEST_CASE("a Mesh moves its OpenMesh mesh without a copy and copies it deeply", "[mesh]") {
+  Mesh a(square(0.0));
+  a.setVertexScalar("w", Eigen::Vector4d(1, 2, 3, 4));
+  const TriMesh* held = &a.tri();
+  Mesh b = std::move(a);
+  CHECK(&b.tri() == held);  // the same OpenMesh mesh, moved by pointer
+  CHECK(b.numVertices() == 4);
+  CHECK(b.vertexScalar("w") == Eigen::Vector4d(1, 2, 3, 4));
+  CHECK(a.tri().n_vertices() == 0);  // moved from: an empty, usable mesh
+
+  Mesh c = b;  // deep: its own OpenMesh mesh and properties
+  CHECK(&c.tri() != &b.tri());
+  c.setVertexScalar("w", Eigen::Vector4d::Zero());
+  Eigen::MatrixXd p = c.positions();
+  p(0, 0) = 7.0;
+  c.setPositions(p);
+  CHECK(b.vertexScalar("w") == Eigen::Vector4d(1, 2, 3, 4));
+  CHECK(b.positions()(0, 0) == 0.0);
+
+  Mesh d(std::make_unique<TriMesh>(square(1.0)));  // taken over
+  CHECK(d.numElements() == 2);
+  CHECK(Mesh(std::unique_ptr<TriMesh>()).numVertices() == 0);
+}

@@ -72,7 +72,7 @@ class Discretization {
   const std::vector<Facet>& facets() const { return facets_; }
   /// Cotangent stiffness K = sum_e a_e G_e G_e^T (n x n, positive semidefinite). Assembled on
   /// the first call (the weights need it, a deformation does not), once, safely from any
-  /// thread; copies made by withElementOrder() share it.
+  /// thread; copies (and those made by withElementOrder()) share it. Empty once moved from.
   const SparseMatrix& stiffness() const;
   /// Barycentric lumped mass (a_e / 3 or a_e / 4 to each vertex).
   const Eigen::VectorXd& lumpedMass() const { return mass_; }

@@ -50,7 +50,9 @@ const char* toString(MeshKind kind) {
   return "unknown";
 }
 
-Mesh::Mesh(TriMesh tri) : tri_(tri) {
+Mesh::Mesh(TriMesh tri) : Mesh(std::make_unique<TriMesh>(tri)) {}
+
+Mesh::Mesh(std::unique_ptr<TriMesh> tri) : tri_(std::move(tri)) {
   double lo[3], hi[3];
   for (int c = 0; c < 3; ++c) {
     lo[c] = std::numeric_limits<double>::infinity();

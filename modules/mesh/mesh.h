@@ -45,11 +45,15 @@ inline constexpr const char* smoothness =
 
 /// A TriMesh on the heap with value semantics. OpenMesh's meshes declare destructors and so
 /// have no move operations: std::move copies them with every property. Held through this, a
-/// Mesh moves in O(1) (leaving an empty mesh behind) and still copies deeply.
+/// Mesh moves in O(1) and still copies deeply. A moved-from box holds a valid mesh: an empty
+/// one after a move construction, the target's previous one after a move assignment.
 class TriMeshBox {
  public:
   TriMeshBox() : mesh_(std::make_unique<TriMesh>()) {}
   explicit TriMeshBox(const TriMesh& mesh) : mesh_(std::make_unique<TriMesh>(mesh)) {}
+  /// Takes `mesh` over (null: an empty mesh).
+  explicit TriMeshBox(std::unique_ptr<TriMesh> mesh)
+      : mesh_(mesh ? std::move(mesh) : std::make_unique<TriMesh>()) {}
   TriMeshBox(const TriMeshBox& other) : mesh_(std::make_unique<TriMesh>(*other.mesh_)) {}
   TriMeshBox(TriMeshBox&& other) : mesh_(std::make_unique<TriMesh>()) { mesh_.swap(other.mesh_); }
   TriMeshBox& operator=(const TriMeshBox& other) {
@@ -77,10 +81,14 @@ class Mesh {
   Mesh() = default;
   /// A triangle mesh; kind is Planar when all z coordinates are equal, else Surface.
   explicit Mesh(TriMesh tri);
+  /// The same, taking the mesh over without a copy (the readers build theirs on the heap).
+  explicit Mesh(std::unique_ptr<TriMesh> tri);
   explicit Mesh(TetMesh tet);
 
   MeshKind kind() const { return kind_; }
   bool isTet() const { return kind_ == MeshKind::Tet; }
+  /// The OpenMesh mesh. A reference to it lasts as long as this Mesh is not assigned to or
+  /// moved from (the mesh lives on the heap and moves with the Mesh's value).
   TriMesh& tri() { return *tri_; }
   const TriMesh& tri() const { return *tri_; }
   TetMesh& tet() { return tet_; }

@@ -932,12 +932,13 @@ OpenMeshQuiet::~OpenMeshQuiet() {
     if (was_[i]) omStream(i).enable();
 }
 
-TriMesh buildTriMesh(const RawMesh& raw, const std::string& source) {
+std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& source) {
   OpenMeshQuiet quiet;
   const long long n = static_cast<long long>(raw.points.size());
   if (n > 2000000000LL) throw InvalidMesh(source + ": more than 2e9 vertices");
   for (size_t k = 0; k < raw.faces.size(); ++k) checkFace(source, raw.faces[k], k, n, raw.base);
-  TriMesh tri;
+  auto mesh = std::make_unique<TriMesh>();  // on the heap: a Mesh takes it over without a copy
+  TriMesh& tri = *mesh;
   // Room for what the file holds (polygons and split faces may add a little): no doubling of
   // OpenMesh's arrays while they fill, which would briefly hold three times their size.
   tri.reserve(raw.points.size(), raw.faces.size() * 3 / 2 + 3, raw.faces.size());
@@ -984,7 +985,7 @@ TriMesh buildTriMesh(const RawMesh& raw, const std::string& source) {
          std::to_string(importer.duplicated) + " vertices appended after the file's " +
          std::to_string(n) + ")");
   }
-  return tri;
+  return mesh;
 }
 
 }  // namespace diffreg

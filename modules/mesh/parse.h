@@ -52,6 +52,6 @@ TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::s
 /// than 1000 of them and more than 10% of the faces is an error). Warns about polygons and
 /// split faces.
 /// \throw InvalidMesh naming `source`, the line and the face.
-TriMesh buildTriMesh(const RawMesh& raw, const std::string& source);
+std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& source);
 
 }  // namespace diffreg

@@ -57,6 +57,11 @@ void writePng(const std::string& path, const Image& image);
 /// \throw IoError when the file cannot be opened or is not a valid PNG.
 Image readPng(const std::string& path);
 
+/// Loads what draws text (Cairo, libcairo.so.2, loaded on first use rather than at start), so
+/// that a run that will draw a figure fails before its work when it is missing.
+/// \throw IoError naming the library when it cannot be loaded.
+void requireTextRendering();
+
 /// Height of a line of text in pixels at `scale` (the font's ascent plus descent; the font is
 /// 9 * scale pixels). \throw InvalidParameter when scale < 1.
 int textHeight(int scale);

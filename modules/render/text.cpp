@@ -117,6 +117,8 @@ void checkScale(const char* function, int scale) {
 
 }  // namespace
 
+void requireTextRendering() { cairo(); }
+
 int textHeight(int scale) {
   checkScale("textHeight", scale);
   const Measures m = measure("", scale);

@@ -14,8 +14,9 @@
 // (the solver holds one around each supernodal factorization and solve) gives the threads back
 // and stops them again when it ends. The library does neither on its own: the BLAS is
 // process-wide, so the diffreg tools opt in, and a host application that runs BLAS work of its
-// own keeps its settings. With another BLAS (reference, BLIS, MKL) or an OpenBLAS without these
-// controls, both do nothing.
+// own keeps its settings. With another BLAS (reference, BLIS, MKL), an OpenBLAS without these
+// controls, or one loaded privately (RTLD_LOCAL, as a Python extension may load it) where the
+// process's global symbols do not show it, both do nothing.
 #pragma once
 
 namespace diffreg {

@@ -1,8 +1,8 @@
 #include "render/render_filter.h"
 
 #include <diffreg/core/error.h>
-#include "plugins.h"
 #include <diffreg/render/render.h>
+#include "plugins.h"
 
 #include <algorithm>
 #include <cctype>
@@ -119,6 +119,7 @@ std::vector<std::string> RenderFilter::requires(const ParamMap& params) const {
 
 void RenderFilter::check(const Document&, const ParamMap& params) const {
   checkOutput(params.getString("file"));
+  requireTextRendering();
 }
 
 FilterResult RenderFilter::apply(Document& doc, const ParamMap& params) const {

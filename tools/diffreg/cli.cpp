@@ -3,6 +3,7 @@
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
 #include <diffreg/core/log.h>
+#include <diffreg/render/image.h>
 #include <diffreg/solver/blas_threads.h>
 
 #include <cerrno>
@@ -223,6 +224,7 @@ std::vector<std::string> checkTableOutputs(const boost::program_options::variabl
       outputs.push_back(path);
       checkOutputTarget(
           path, key == std::string("output") ? kPictureExtensions : std::vector<std::string>{});
+      if (key == std::string("output")) requireTextRendering();  // before the work, not after
     }
   return outputs;
 }
