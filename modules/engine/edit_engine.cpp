@@ -127,12 +127,11 @@ bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, con
   const EditParams& p = want.params;
   const std::optional<EditState>& had = tracked.synced;
   const Regularization mode = regularized ? p.regularization : Regularization::None;
-  const bool fresh = !tracked.session || !had || had->params.energy != p.energy ||
-                     had->params.localStep != p.localStep ||
-                     had->params.acceleration != p.acceleration ||
-                     had->params.history != p.history ||
-                     (mode != Regularization::None &&
-                      !tracked.session->options().reserveRegularization);
+  const bool fresh =
+      !tracked.session || !had || had->params.energy != p.energy ||
+      had->params.localStep != p.localStep || had->params.acceleration != p.acceleration ||
+      had->params.history != p.history ||
+      (mode != Regularization::None && !tracked.session->options().reserveRegularization);
   if (fresh) {
     tracked.session = newSession(setup, p, mode, regularized, weights);
     tracked.weightsSerial = weightsSerial;
@@ -198,8 +197,14 @@ struct EditEngine::Systems {
   TrackedDeformation deform, reference;
 };
 
+// The discretization of the mesh taken over (mesh_ is initialized first): no copy of the mesh.
 EditEngine::EditEngine(Mesh mesh, EngineSettings settings)
-    : EditEngine(mesh, std::make_shared<const Discretization>(mesh), settings) {}
+    : mesh_(std::move(mesh)),
+      disc_(std::make_shared<const Discretization>(mesh_)),
+      settings_(settings),
+      systems_(std::make_unique<Systems>()) {
+  initialize();
+}
 
 EditEngine::EditEngine(Mesh mesh, std::shared_ptr<const Discretization> disc,
                        EngineSettings settings)
@@ -209,6 +214,10 @@ EditEngine::EditEngine(Mesh mesh, std::shared_ptr<const Discretization> disc,
       systems_(std::make_unique<Systems>()) {
   if (!disc_ || disc_->numVertices() != mesh_.numVertices())
     throw InvalidParameter("edit engine: the discretization is not of this mesh");
+  initialize();
+}
+
+void EditEngine::initialize() {
   positions_ = mesh_.positions();
   weights_ = Eigen::VectorXd::Zero(disc_->numVertices());
   distortion_ = Eigen::VectorXd::Zero(disc_->numElements());
@@ -449,7 +458,7 @@ const Eigen::MatrixXd& EditEngine::referencePositions() const {
 }
 
 bool EditEngine::computeWeights(const EditState& want, Eigen::VectorXd& weights,
-                                 UpdateReport& report) {
+                                UpdateReport& report) {
   Systems& S = *systems_;
   const EditParams& p = want.params;
   bool changed = false;
@@ -489,17 +498,16 @@ bool EditEngine::computeWeights(const EditState& want, Eigen::VectorXd& weights,
         p.rbf.sigmaAbsolute ? p.rbf.sigma : rbfSigmaFromDiagonal(mesh_, p.rbf.sigma);
     if (!had || vertexSets(*had) != vertexSets(want) || !sameRangesAndMagnitudes(*had, want) ||
         !sameRbf(had->params.rbf, p.rbf)) {
-      weights = rbfWeights(mesh_, toHandleSet(want), report.absoluteSigma, p.rbf.distance,
-                           p.rbf.clamp);
+      weights =
+          rbfWeights(mesh_, toHandleSet(want), report.absoluteSigma, p.rbf.distance, p.rbf.clamp);
       changed = true;
       report.weightsWork = "evaluate";
     }
     S.rbfSynced = want;
   } else {  // given
     S.rbfSynced.reset();
-    const Eigen::VectorXd given = p.givenWeights.size() == 0
-                                      ? Eigen::VectorXd::Zero(disc_->numVertices())
-                                      : p.givenWeights;
+    const Eigen::VectorXd given =
+        p.givenWeights.size() == 0 ? Eigen::VectorXd::Zero(disc_->numVertices()) : p.givenWeights;
     changed = weights.size() != given.size() || weights != given;
     if (changed) weights = given;
   }

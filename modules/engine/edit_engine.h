@@ -51,7 +51,7 @@ struct EnumTable<WeightScheme> {
 
 struct RbfSettings {
   RbfDistance distance = RbfDistance::Geodesic;
-  double sigma = 0.1;  ///< kernel width as a fraction of the bounding-box diagonal
+  double sigma = 0.1;          ///< kernel width as a fraction of the bounding-box diagonal
   bool sigmaAbsolute = false;  ///< sigma is a length, not a fraction of the diagonal
   /// Clamp to [0, 1]: unclamped RBF sums may exceed 1 between nearby handles, and such weights
   /// cannot serve as beta for the non-uniform regularization.
@@ -263,7 +263,10 @@ class EditEngine {
   // distortion_, smoothness_ and metrics_ for the shape `positions` (n x 3).
   void computeMaps(const EditState& want, const Eigen::MatrixXd& positions);
 
-  Mesh mesh_;
+  // The state of a new engine from mesh_ and disc_ (both constructors).
+  void initialize();
+
+  Mesh mesh_;  // before disc_: the one-argument constructor discretizes it
   std::shared_ptr<const Discretization> disc_;
   EngineSettings settings_;
   std::function<void(int, double, double)> progress_;
