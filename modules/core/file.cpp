@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <random>
 
@@ -145,6 +146,12 @@ void writeFileAtomically(const std::string& path, const std::function<void(std::
     std::remove(tmp.c_str());
     throw fail(e.what());
   }
+}
+
+std::string besideThisExecutable(const std::string& name) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : (self.parent_path() / name).string();
 }
 
 }  // namespace diffreg

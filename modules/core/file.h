@@ -39,6 +39,11 @@ std::uint64_t checkInputFile(const std::string& path, const std::string& what, s
 ///        `body` throws a standard exception; an Error thrown by `body` passes unchanged.
 void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body);
 
+/// The path of the file `name` in the directory of the running executable (its real location,
+/// symbolic links resolved), whether or not that file exists; empty when the executable's
+/// location cannot be found out. For the tools that start one another.
+std::string besideThisExecutable(const std::string& name);
+
 /// "1.5 MiB", "512 MiB", "300 bytes": a byte count for messages.
 std::string byteText(std::uint64_t bytes);
 

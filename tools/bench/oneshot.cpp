@@ -3,10 +3,11 @@
 // iterations=1' -o OUT.ply`), against CGAL's Surface_mesh_deformation reading the same file,
 // preprocessing and deforming once, in the same run. Handles: the 5% at both ends of the longest
 // axis, one end pulled by 10% of the length (as the peer cases).
-#include "bench.h"
 #include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
 #include <diffreg/core/timer.h>
 #include <diffreg/mesh/io.h>
+#include "bench.h"
 
 #include <nlohmann/json.hpp>
 
@@ -34,19 +35,11 @@ struct OneShot {
   fs::path dir;
 };
 
-// The diffreg tool beside this benchmark's executable.
-std::string toolPath() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string() : (self.parent_path() / "diffreg").string();
-}
-
 // Writes the handles as a diffreg handle file: the held end, and the pulled end with the
 // (common) translation of its vertices.
 void writeHandleFile(const OneShot& s, size_t held, const Eigen::MatrixXd& rest) {
   nlohmann::json fixed = nlohmann::json::array(), moved = nlohmann::json::array();
-  for (size_t i = 0; i < s.handles.size(); ++i)
-    (i < held ? fixed : moved).push_back(s.handles[i]);
+  for (size_t i = 0; i < s.handles.size(); ++i) (i < held ? fixed : moved).push_back(s.handles[i]);
   const Eigen::Index first = static_cast<Eigen::Index>(held);
   const Eigen::RowVector3d shift = s.targets.row(first) - rest.row(s.handles[held]);
   nlohmann::json file = {
@@ -57,8 +50,9 @@ void writeHandleFile(const OneShot& s, size_t held, const Eigen::MatrixXd& rest)
 }
 
 double runTool(const OneShot& s) {
-  std::vector<std::string> args = {s.tool,     "-i",       s.path, "--handles", s.handleFile,
-                                   "--filter", "deform iterations=1", "-o", s.output, "--quiet"};
+  std::vector<std::string> args = {
+      s.tool, "-i",     s.path,   "--handles", s.handleFile, "--filter", "deform iterations=1",
+      "-o",   s.output, "--quiet"};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -88,7 +82,7 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
       p.skipReason = s.path + " absent";
       return p;
     }
-    s.tool = toolPath();
+    s.tool = besideThisExecutable("diffreg");  // the tool beside this benchmark
     if (s.tool.empty() || !fs::exists(s.tool)) {
       p.available = false;
       p.skipReason = "the diffreg tool is not beside diffreg-bench";

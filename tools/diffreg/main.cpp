@@ -8,6 +8,7 @@
 // one line "diffreg: error: ..." on stderr; the exit code is 2 for usage errors, else 1.
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
 #include <diffreg/core/log.h>
 #include <diffreg/core/timer.h>
 #include <diffreg/mesh/io.h>
@@ -168,19 +169,18 @@ int runPipeline(const po::variables_map& vm) {
   return 0;
 }
 
-// `diffreg serve ...` is the executable diffreg-serve beside this one, started in this
-// process's place: the HTTP server and the libraries it links are loaded only by it.
+// `diffreg serve ...` is the executable diffreg-serve beside this one (on the PATH when this
+// one's location is unknown), started in this process's place: the HTTP server and the
+// libraries it links are loaded only by it. argv[0] is "serve".
 int runServe(int argc, char** argv) {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  const std::string tool =
-      ((ec ? fs::path(argv[0]) : self).parent_path() / "diffreg-serve").string();
+  std::string tool = besideThisExecutable("diffreg-serve");
+  if (tool.empty()) tool = "diffreg-serve";
   std::vector<std::string> args = {tool};
   for (int i = 1; i < argc; ++i) args.emplace_back(argv[i]);
   std::vector<char*> pointers;
   for (std::string& a : args) pointers.push_back(a.data());
   pointers.push_back(nullptr);
-  ::execv(tool.c_str(), pointers.data());
+  ::execvp(tool.c_str(), pointers.data());
   throw IoError("serve: cannot run '" + tool + "': " + std::strerror(errno) +
                 " (the editor is the executable diffreg-serve, installed beside diffreg)");
 }
