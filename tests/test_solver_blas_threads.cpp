@@ -87,6 +87,11 @@ TEST_CASE("BLAS threads reserved for supernodal factorizations", "[solver]") {
     CHECK(blasThreads() == started);  // the outer scope still holds them
   }
   CHECK(blasThreads() == 1);
+  {
+    const BlasThreadScope unwanted(false);  // e.g. a simplicial factor's solve
+    CHECK(blasThreads() == 1);
+  }
+  CHECK(blasThreads() == 1);
 
   if (defaultSolverBackend() != SolverBackend::Cholmod) return;
   const int k = 30;

@@ -82,9 +82,9 @@ int blasScopeThreads() {
   return blasThreads();
 }
 
-BlasThreadScope::BlasThreadScope() {
+BlasThreadScope::BlasThreadScope(bool wanted) {
   const OpenBlas& api = openBlas();
-  if (!api.usable()) return;
+  if (!wanted || !api.usable()) return;
   State& s = state();
   std::lock_guard<std::mutex> lock(s.mutex);
   if (!s.reserved) return;

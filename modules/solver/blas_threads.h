@@ -39,12 +39,12 @@ int blasThreads();
 /// reserved).
 int blasScopeThreads();
 
-/// For its lifetime, the BLAS's threads as it started with them, when reserveBlasThreads() is in
-/// effect (otherwise nothing). Scopes may nest and may be held on several threads; the last one
-/// to end makes the BLAS single-threaded again and stops its workers.
+/// For its lifetime, the BLAS's threads as it started with them, when `wanted` and
+/// reserveBlasThreads() is in effect (otherwise nothing). Scopes may nest and may be held on
+/// several threads; the last one to end makes the BLAS single-threaded again and stops its workers.
 class BlasThreadScope {
  public:
-  BlasThreadScope();
+  explicit BlasThreadScope(bool wanted = true);
   ~BlasThreadScope();
   BlasThreadScope(const BlasThreadScope&) = delete;
   BlasThreadScope& operator=(const BlasThreadScope&) = delete;

@@ -10,7 +10,6 @@
 #include <cholmod.h>
 #endif
 #include <algorithm>
-#include <optional>
 #include <string>
 
 namespace diffreg {
@@ -186,8 +185,7 @@ struct SpdSolver::Impl {
     if (backend == SolverBackend::Cholmod) {
       cholmod_sparse a = viewOf(A);
       // Supernodal factors are the only work here that threaded BLAS speeds up.
-      std::optional<BlasThreadScope> threads;
-      if (factor->is_super) threads.emplace();
+      const BlasThreadScope threads(factor->is_super);
       const int ok = cholmod_factorize(&a, factor, &common);
       return ok && common.status == CHOLMOD_OK && factor->minor == factor->n;
     }
@@ -207,8 +205,7 @@ struct SpdSolver::Impl {
       b.x = const_cast<double*>(B.data());
       b.xtype = CHOLMOD_REAL;
       b.dtype = CHOLMOD_DOUBLE;
-      std::optional<BlasThreadScope> threads;
-      if (factor->is_super) threads.emplace();
+      const BlasThreadScope threads(factor->is_super);
       if (!cholmod_solve2(CHOLMOD_A, factor, &b, nullptr, &x, nullptr, &y, &e, &common))
         throw SingularSystem("solver: CHOLMOD's solve failed (status " +
                              std::to_string(common.status) + ")");
