@@ -24,21 +24,27 @@ constexpr const char* kFontFamily = "DejaVu Sans";
 constexpr double kPixelsPerScale = 9.0;  // font size in pixels at scale 1
 constexpr const char* kCairoLibrary = "libcairo.so.2";
 
-// The Cairo functions used here, from the library loaded once (kept loaded for the process).
+// The Cairo functions used here, each named once: X(name) stands for cairo_<name>, bound from the
+// library loaded once (kept loaded for the process) to a member of that name and type.
+#define DIFFREG_CAIRO_FUNCTIONS(X) \
+  X(image_surface_create)          \
+  X(image_surface_get_data)        \
+  X(image_surface_get_stride)      \
+  X(surface_flush)                 \
+  X(surface_destroy)               \
+  X(create)                        \
+  X(destroy)                       \
+  X(select_font_face)              \
+  X(set_font_size)                 \
+  X(font_extents)                  \
+  X(text_extents)                  \
+  X(move_to)                       \
+  X(show_text)
+
 struct Cairo {
-  decltype(&cairo_image_surface_create) imageSurfaceCreate;
-  decltype(&cairo_image_surface_get_data) imageSurfaceGetData;
-  decltype(&cairo_image_surface_get_stride) imageSurfaceGetStride;
-  decltype(&cairo_surface_flush) surfaceFlush;
-  decltype(&cairo_surface_destroy) surfaceDestroy;
-  decltype(&cairo_create) create;
-  decltype(&cairo_destroy) destroy;
-  decltype(&cairo_select_font_face) selectFontFace;
-  decltype(&cairo_set_font_size) setFontSize;
-  decltype(&cairo_font_extents) fontExtents;
-  decltype(&cairo_text_extents) textExtents;
-  decltype(&cairo_move_to) moveTo;
-  decltype(&cairo_show_text) showText;
+#define DIFFREG_CAIRO_MEMBER(name) decltype(&cairo_##name) name;
+  DIFFREG_CAIRO_FUNCTIONS(DIFFREG_CAIRO_MEMBER)
+#undef DIFFREG_CAIRO_MEMBER
 };
 
 template <class F>
@@ -56,21 +62,12 @@ Cairo loadCairo() {
                   (why ? std::string(" (") + why + ")" : std::string()) + " (Debian: libcairo2)");
   }
   Cairo c{};
-  bind(library, c.imageSurfaceCreate, "cairo_image_surface_create");
-  bind(library, c.imageSurfaceGetData, "cairo_image_surface_get_data");
-  bind(library, c.imageSurfaceGetStride, "cairo_image_surface_get_stride");
-  bind(library, c.surfaceFlush, "cairo_surface_flush");
-  bind(library, c.surfaceDestroy, "cairo_surface_destroy");
-  bind(library, c.create, "cairo_create");
-  bind(library, c.destroy, "cairo_destroy");
-  bind(library, c.selectFontFace, "cairo_select_font_face");
-  bind(library, c.setFontSize, "cairo_set_font_size");
-  bind(library, c.fontExtents, "cairo_font_extents");
-  bind(library, c.textExtents, "cairo_text_extents");
-  bind(library, c.moveTo, "cairo_move_to");
-  bind(library, c.showText, "cairo_show_text");
+#define DIFFREG_CAIRO_BIND(name) bind(library, c.name, "cairo_" #name);
+  DIFFREG_CAIRO_FUNCTIONS(DIFFREG_CAIRO_BIND)
+#undef DIFFREG_CAIRO_BIND
   return c;
 }
+#undef DIFFREG_CAIRO_FUNCTIONS
 
 // Loaded on first use; a failure is thrown to every caller (and tried again by the next).
 const Cairo& cairo() {
@@ -79,7 +76,7 @@ const Cairo& cairo() {
 }
 
 struct SurfaceDeleter {
-  void operator()(cairo_surface_t* s) const { cairo().surfaceDestroy(s); }
+  void operator()(cairo_surface_t* s) const { cairo().surface_destroy(s); }
 };
 struct ContextDeleter {
   void operator()(cairo_t* c) const { cairo().destroy(c); }
@@ -90,8 +87,9 @@ using Context = std::unique_ptr<cairo_t, ContextDeleter>;
 /// A Cairo context on `surface` with the figure font at `scale`.
 Context fontContext(cairo_surface_t* surface, int scale) {
   Context cr(cairo().create(surface));
-  cairo().selectFontFace(cr.get(), kFontFamily, CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-  cairo().setFontSize(cr.get(), kPixelsPerScale * scale);
+  cairo().select_font_face(cr.get(), kFontFamily, CAIRO_FONT_SLANT_NORMAL,
+                           CAIRO_FONT_WEIGHT_NORMAL);
+  cairo().set_font_size(cr.get(), kPixelsPerScale * scale);
   return cr;
 }
 
@@ -101,11 +99,11 @@ struct Measures {
   cairo_text_extents_t text{};
 };
 Measures measure(const std::string& text, int scale) {
-  const Surface scratch(cairo().imageSurfaceCreate(CAIRO_FORMAT_A8, 1, 1));
+  const Surface scratch(cairo().image_surface_create(CAIRO_FORMAT_A8, 1, 1));
   const Context cr = fontContext(scratch.get(), scale);
   Measures m;
-  cairo().fontExtents(cr.get(), &m.font);
-  if (!text.empty()) cairo().textExtents(cr.get(), text.c_str(), &m.text);
+  cairo().font_extents(cr.get(), &m.font);
+  if (!text.empty()) cairo().text_extents(cr.get(), text.c_str(), &m.text);
   return m;
 }
 
@@ -139,17 +137,17 @@ void drawText(Image& image, int x, int y, const std::string& text, const Rgb& co
   if (w == 0 || h == 0) return;
   // The coverage of the text in an alpha-only surface of exactly its box, blended onto the
   // image: nothing is drawn outside the box textWidth x textHeight.
-  const Surface surface(cairo().imageSurfaceCreate(CAIRO_FORMAT_A8, w, h));
+  const Surface surface(cairo().image_surface_create(CAIRO_FORMAT_A8, w, h));
   {
     const Context cr = fontContext(surface.get(), scale);
     cairo_font_extents_t font{};
-    cairo().fontExtents(cr.get(), &font);
-    cairo().moveTo(cr.get(), 0.0, font.ascent);
-    cairo().showText(cr.get(), text.c_str());
+    cairo().font_extents(cr.get(), &font);
+    cairo().move_to(cr.get(), 0.0, font.ascent);
+    cairo().show_text(cr.get(), text.c_str());
   }
-  cairo().surfaceFlush(surface.get());
-  const unsigned char* data = cairo().imageSurfaceGetData(surface.get());
-  const int stride = cairo().imageSurfaceGetStride(surface.get());
+  cairo().surface_flush(surface.get());
+  const unsigned char* data = cairo().image_surface_get_data(surface.get());
+  const int stride = cairo().image_surface_get_stride(surface.get());
   if (data == nullptr) return;  // Cairo could not allocate the surface: no text
   for (int row = 0; row < h; ++row)
     for (int col = 0; col < w; ++col) {
