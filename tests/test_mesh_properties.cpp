@@ -5,6 +5,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <vector>
+
 using namespace diffreg;
 
 namespace {
@@ -175,4 +177,28 @@ TEST_CASE("a Mesh moves its OpenMesh mesh without a copy and copies it deeply", 
   Mesh d(std::make_unique<TriMesh>(square(1.0)));  // taken over
   CHECK(d.numElements() == 2);
   CHECK(Mesh(std::unique_ptr<TriMesh>()).numVertices() == 0);
+
+  // Move assignment leaves an empty mesh that can be written to and assigned again.
+  Mesh e(square(2.0));
+  e = std::move(d);
+  CHECK(e.numElements() == 2);
+  const Mesh& readOnly = d;
+  CHECK(readOnly.numVertices() == 0);
+  CHECK(readOnly.tri().n_faces() == 0);
+  CHECK(d.tri().add_vertex(TriMesh::Point(0, 0, 0)).idx() == 0);  // its own, new mesh
+  CHECK(d.numVertices() == 1);
+  CHECK(Mesh().numVertices() == 0);
+  d = e;
+  CHECK(d.numElements() == 2);
+  CHECK(&d.tri() != &e.tri());
+}
+
+TEST_CASE("a growing vector of meshes moves them instead of copying", "[mesh]") {
+  std::vector<Mesh> meshes;
+  meshes.reserve(1);
+  meshes.emplace_back(square(0.0));
+  const TriMesh* first = &meshes[0].tri();
+  for (int i = 1; i < 9; ++i) meshes.emplace_back(square(i));  // reallocates a few times
+  CHECK(&meshes[0].tri() == first);
+  CHECK(meshes[0].numVertices() == 4);
 }

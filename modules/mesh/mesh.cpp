@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 namespace diffreg {
 namespace {
@@ -49,6 +50,14 @@ const char* toString(MeshKind kind) {
   }
   return "unknown";
 }
+
+const TriMesh& TriMeshBox::empty() {
+  static const TriMesh mesh;
+  return mesh;
+}
+
+static_assert(std::is_nothrow_move_constructible_v<Mesh> && std::is_nothrow_move_assignable_v<Mesh>,
+              "a Mesh moves without copying its OpenMesh mesh, also inside std::vector");
 
 Mesh::Mesh(TriMesh tri) : Mesh(std::make_unique<TriMesh>(tri)) {}
 

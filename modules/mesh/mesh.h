@@ -45,32 +45,36 @@ inline constexpr const char* smoothness =
 
 /// A TriMesh on the heap with value semantics. OpenMesh's meshes declare destructors and so
 /// have no move operations: std::move copies them with every property. Held through this, a
-/// Mesh moves in O(1) and still copies deeply. A moved-from box holds a valid mesh: an empty
-/// one after a move construction, the target's previous one after a move assignment.
+/// Mesh moves in O(1), without allocating (noexcept, so a growing std::vector<Mesh> moves its
+/// meshes instead of copying them), and still copies deeply. A box without a mesh (default,
+/// moved from, or a tet mesh's) reads as an empty mesh and makes one on its first write access.
 class TriMeshBox {
  public:
-  TriMeshBox() : mesh_(std::make_unique<TriMesh>()) {}
+  TriMeshBox() = default;
   explicit TriMeshBox(const TriMesh& mesh) : mesh_(std::make_unique<TriMesh>(mesh)) {}
   /// Takes `mesh` over (null: an empty mesh).
-  explicit TriMeshBox(std::unique_ptr<TriMesh> mesh)
-      : mesh_(mesh ? std::move(mesh) : std::make_unique<TriMesh>()) {}
-  TriMeshBox(const TriMeshBox& other) : mesh_(std::make_unique<TriMesh>(*other.mesh_)) {}
-  TriMeshBox(TriMeshBox&& other) : mesh_(std::make_unique<TriMesh>()) { mesh_.swap(other.mesh_); }
+  explicit TriMeshBox(std::unique_ptr<TriMesh> mesh) : mesh_(std::move(mesh)) {}
+  TriMeshBox(const TriMeshBox& other)
+      : mesh_(other.mesh_ ? std::make_unique<TriMesh>(*other.mesh_) : nullptr) {}
+  TriMeshBox(TriMeshBox&& other) noexcept = default;
   TriMeshBox& operator=(const TriMeshBox& other) {
-    if (this != &other) mesh_ = std::make_unique<TriMesh>(*other.mesh_);
+    if (this != &other) mesh_ = other.mesh_ ? std::make_unique<TriMesh>(*other.mesh_) : nullptr;
     return *this;
   }
-  TriMeshBox& operator=(TriMeshBox&& other) {
-    mesh_.swap(other.mesh_);
-    return *this;
-  }
-  TriMesh& operator*() { return *mesh_; }
-  const TriMesh& operator*() const { return *mesh_; }
-  TriMesh* operator->() { return mesh_.get(); }
-  const TriMesh* operator->() const { return mesh_.get(); }
+  TriMeshBox& operator=(TriMeshBox&& other) noexcept = default;
+  /// The mesh; an empty one is made on the first write access of an empty box.
+  TriMesh& operator*() { return *get(); }
+  const TriMesh& operator*() const { return mesh_ ? *mesh_ : empty(); }
+  TriMesh* operator->() { return get(); }
+  const TriMesh* operator->() const { return &**this; }
 
  private:
-  std::unique_ptr<TriMesh> mesh_;
+  TriMesh* get() {
+    if (!mesh_) mesh_ = std::make_unique<TriMesh>();
+    return mesh_.get();
+  }
+  static const TriMesh& empty();
+  std::unique_ptr<TriMesh> mesh_;  // null: empty (a tet mesh's, a default one, or moved from)
 };
 
 /// A planar, surface or tet mesh with named scalar properties per vertex and per element.
