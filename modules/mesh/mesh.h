@@ -92,7 +92,9 @@ class Mesh {
   MeshKind kind() const { return kind_; }
   bool isTet() const { return kind_ == MeshKind::Tet; }
   /// The OpenMesh mesh. A reference to it lasts as long as this Mesh is not assigned to or
-  /// moved from (the mesh lives on the heap and moves with the Mesh's value).
+  /// moved from (the mesh lives on the heap and moves with the Mesh's value). A Mesh without
+  /// one (a tet mesh, a default or moved-from Mesh) reads as a shared empty mesh: a const
+  /// reference taken then does not follow the mesh that a later write access makes.
   TriMesh& tri() { return *tri_; }
   const TriMesh& tri() const { return *tri_; }
   TetMesh& tet() { return tet_; }
