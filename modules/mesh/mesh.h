@@ -51,7 +51,6 @@ inline constexpr const char* smoothness =
 class TriMeshBox {
  public:
   TriMeshBox() = default;
-  explicit TriMeshBox(const TriMesh& mesh) : mesh_(std::make_unique<TriMesh>(mesh)) {}
   /// Takes `mesh` over (null: an empty mesh).
   explicit TriMeshBox(std::unique_ptr<TriMesh> mesh) : mesh_(std::move(mesh)) {}
   TriMeshBox(const TriMeshBox& other)
