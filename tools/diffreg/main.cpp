@@ -9,6 +9,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
+#include <diffreg/core/heap.h>
 #include <diffreg/core/log.h>
 #include <diffreg/core/timer.h>
 #include <diffreg/mesh/io.h>
@@ -253,5 +254,6 @@ std::string workingOn() {
 }  // namespace diffreg
 
 int main(int argc, char** argv) {
+  diffreg::tuneHeapForBatchRun();  // a run reads, computes, writes and exits
   return diffreg::runCommand([&] { return diffreg::run(argc, argv); }, diffreg::workingOn);
 }

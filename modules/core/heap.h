@@ -1,0 +1,24 @@
+// The C library's allocator, set up for a batch run: a process that reads a mesh, builds its
+// arrays once, writes the result and exits (the diffreg tool).
+#pragma once
+
+namespace diffreg {
+
+/// What tuneHeapForBatchRun() did.
+struct HeapTuning {
+  bool thresholds = false;  ///< arrays up to 32 MiB come from the heap and stay there when freed
+  bool hugePages = false;   ///< the heap reserved ahead was advised for transparent huge pages
+};
+
+/// With glibc: arrays up to 32 MiB are taken from the main heap and kept there when freed
+/// (rather than mapped and unmapped each time), the heap grows 256 MiB at a time (address space
+/// only: memory is committed when touched), and that reserve is advised for transparent huge
+/// pages (MADV_HUGEPAGE; the kernel's default "madvise" mode grants them only on request).
+/// A fresh page costs a fault and a clearing on first touch; a one-shot deformation of a 10K
+/// mesh takes 7,500 of them with 4 KiB pages and about 1,000 with this (docs/benchmarks.md).
+/// Meant for the start of main() of short-lived processes: memory freed is not given back to
+/// the system before exit. Elsewhere (another C library, no huge pages) it does what it can and
+/// says so in the result; it never fails.
+HeapTuning tuneHeapForBatchRun();
+
+}  // namespace diffreg
