@@ -17,7 +17,8 @@ struct HeapTuning {
 /// A fresh page costs a fault and a clearing on first touch; a one-shot deformation of a 10K
 /// mesh takes 7,500 of them with 4 KiB pages and about 1,000 with this (docs/benchmarks.md).
 /// Meant for the start of main() of short-lived processes: memory freed is not given back to
-/// the system before exit. Elsewhere (another C library, no huge pages) it does what it can and
+/// the system before exit, and under an address-space limit (ulimit -v) the reserve counts
+/// against it. Elsewhere (another C library, no huge pages) it does what it can and
 /// says so in the result; it never fails.
 HeapTuning tuneHeapForBatchRun();
 
