@@ -35,6 +35,9 @@ HeapTuning tuneHeapForBatchRun() {
   if (inHeap && from < to)
     done.hugePages = madvise(reinterpret_cast<void*>(from), to - from, MADV_HUGEPAGE) == 0;
   std::free(probe);
+  // Past the reserve the heap grows as by default (glibc's 128 KiB pad), in address space that
+  // is not advised.
+  mallopt(M_TOP_PAD, static_cast<int>(kMiB / 8));
 #endif
 #endif
   return done;
