@@ -39,7 +39,12 @@ void printError(const std::string& message) {
 
 }  // namespace
 
-int runCommand(const std::function<int()>& body, const std::function<std::string()>& context) {
+std::string& currentInput() {
+  static std::string input;
+  return input;
+}
+
+int runCommand(const std::function<int()>& body) {
   reserveBlasThreads();
   try {
     return body();
@@ -50,7 +55,10 @@ int runCommand(const std::function<int()>& body, const std::function<std::string
     printError(e.what());
     return 2;
   } catch (const std::bad_alloc&) {
-    printError("out of memory (" + context() + ")");
+    printError("out of memory (" + (currentInput().empty()
+                                        ? std::string("before reading any input")
+                                        : "while working on '" + currentInput() + "'") +
+               ")");
     return 1;
   } catch (const std::exception& e) {
     printError(e.what());
@@ -69,6 +77,7 @@ bool parseCommandLine(int argc, char** argv, const char* usage,
     return false;
   }
   if (vm.count("quiet") && vm["quiet"].as<bool>()) setQuiet(true);
+  if (vm.count("input")) currentInput() = vm["input"].as<std::string>();
   return true;
 }
 

@@ -31,11 +31,16 @@ std::string join(const std::vector<std::string>& items, const char* separator);
 /// The main() of a diffreg executable: keeps the BLAS's threads for supernodal factors (the
 /// element loops use every core), runs `body` and turns what it throws into one line
 /// "diffreg: error: ..." on stderr. Returns body's exit code, 2 for a UsageError or a bad
-/// option, else 1; an out-of-memory error names `context()` (say, the input being worked on).
-int runCommand(const std::function<int()>& body, const std::function<std::string()>& context);
+/// option, else 1; an out-of-memory error names the input being worked on (currentInput()).
+int runCommand(const std::function<int()>& body);
+
+/// The input mesh of the running command as given with -i (empty before the options are
+/// parsed): what an out-of-memory error names.
+std::string& currentInput();
 
 /// Parses a command's options into `vm`. With --help prints `usage` and the options and returns
-/// false (nothing else to do); applies --quiet when the options have it.
+/// false (nothing else to do); applies --quiet when the options have it and records -i as the
+/// currentInput().
 bool parseCommandLine(int argc, char** argv, const char* usage,
                       const boost::program_options::options_description& options,
                       boost::program_options::variables_map& vm);

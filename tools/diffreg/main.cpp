@@ -61,12 +61,6 @@ const char* kUsage =
     "is only converted. Nothing is written when anything fails.\n"
     "-s runs the filters of a MeshLab FilterScript (.mlx) first, then any --filter ones.\n";
 
-/// The input of the run, for the out-of-memory message.
-std::string& inputName() {
-  static std::string name;
-  return name;
-}
-
 /// Wraps `text` to `width` columns, each line starting with `indent`.
 std::string wrap(const std::string& text, const std::string& indent, size_t width = 78) {
   std::istringstream words(text);
@@ -115,7 +109,7 @@ int runPipeline(const po::variables_map& vm) {
   if (!vm.count("input")) throw UsageError("missing -i IN (see diffreg --help)");
   if (!vm.count("output")) throw UsageError("missing -o OUT (see diffreg --help)");
   const std::string input = vm["input"].as<std::string>();
-  inputName() = input;
+  currentInput() = input;
   const auto outputs = vm["output"].as<std::vector<std::string>>();
   const std::string handles = vm.count("handles") ? vm["handles"].as<std::string>() : "";
   const std::string reportPath = vm.count("report") ? vm["report"].as<std::string>() : "";
@@ -245,15 +239,10 @@ int run(int argc, char** argv) {
   return runPipeline(vm);
 }
 
-std::string workingOn() {
-  return inputName().empty() ? std::string("before reading any input")
-                             : "while working on '" + inputName() + "'";
-}
-
 }  // namespace
 }  // namespace diffreg
 
 int main(int argc, char** argv) {
   diffreg::tuneHeapForBatchRun();  // a run reads, computes, writes and exits
-  return diffreg::runCommand([&] { return diffreg::run(argc, argv); }, diffreg::workingOn);
+  return diffreg::runCommand([&] { return diffreg::run(argc, argv); });
 }

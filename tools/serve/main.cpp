@@ -130,9 +130,5 @@ int runServe(int argc, char** argv) {
 }  // namespace diffreg
 
 int main(int argc, char** argv) {
-  std::string input = "before reading any input";
-  for (int i = 1; i + 1 < argc; ++i)
-    if (std::string(argv[i]) == "-i" || std::string(argv[i]) == "--input")
-      input = std::string("while working on '") + argv[i + 1] + "'";
-  return diffreg::runCommand([&] { return diffreg::runServe(argc, argv); }, [&] { return input; });
+  return diffreg::runCommand([&] { return diffreg::runServe(argc, argv); });
 }
