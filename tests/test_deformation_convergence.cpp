@@ -347,3 +347,48 @@ TEST_CASE("local step and acceleration names parse; unknown ones list the valid 
   CHECK_THROWS_WITH(parseEnum<Acceleration>("fast"), Catch::Contains("acceleration") &&
                                                    Catch::Contains("lbfgs, anderson, none"));
 }
+
+TEST_CASE("a run under a time budget stops unconverged and continues with the steps of one run",
+          "[deformation][convergence]") {
+  for (MeshKind kind : kAllKinds)
+    for (Regularization mode : kModes)
+      for (Acceleration acceleration : {Acceleration::Lbfgs, Acceleration::Anderson}) {
+        const Bent b = bentBar(kind);
+        DeformationOptions o = optionsFor(b, Energy::Arap, mode);
+        o.acceleration = acceleration;
+        auto session = [&] {
+          auto s = std::make_unique<DeformationSession>(*b.disc, o);
+          s->setHandles(b.handles);
+          s->setTargets(b.targets);
+          return s;
+        };
+        const DeformationResult once = session()->solve();
+        INFO(toString(kind) << " " << toString(mode) << " " << toString(acceleration) << ": "
+                            << once.iterations << " iterations");
+        REQUIRE(once.converged);
+        REQUIRE(once.iterations > 3);
+        // A budget spent before the first step: every call takes one iteration more (the first
+        // run also its start), and resume() goes on where it stopped.
+        auto s = session();
+        s->setTimeBudget(1e-9);
+        DeformationResult r = s->solve();
+        CHECK_FALSE(r.converged);
+        int iterations = r.iterations, calls = 1;
+        while (!r.converged && calls < 2 * once.iterations) {
+          r = s->resume(kDefaultIterations, kDefaultTolerance);
+          CHECK(r.iterations <= 2);  // one iteration, or the L-BFGS step and its plain check
+          iterations += r.iterations;
+          ++calls;
+        }
+        CHECK(r.converged);
+        CHECK(iterations == once.iterations);
+        CHECK(r.energies.back() == once.energies.back());
+        CHECK((r.positions - once.positions).cwiseAbs().maxCoeff() == 0.0);
+        // No budget again: one call to the end.
+        s->setTimeBudget(0.0);
+        CHECK(s->solve().iterations == once.iterations);
+      }
+  DeformationSession s(*bentBar(MeshKind::Planar).disc, DeformationOptions{});
+  CHECK_THROWS_AS(s.setTimeBudget(-1.0), InvalidParameter);
+  CHECK_THROWS_AS(s.setTimeBudget(std::nan("")), InvalidParameter);
+}

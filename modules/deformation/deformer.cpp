@@ -102,6 +102,17 @@ void DeformationCore::setHandleBasis(bool on) {
   if (!on) basis_.reset();
 }
 
+void DeformationCore::setTimeBudget(double seconds) {
+  if (!(seconds >= 0.0) || !std::isfinite(seconds))
+    throw InvalidParameter("deformation: the time budget must be a non-negative number of "
+                           "seconds, not " + std::to_string(seconds));
+  budget_ = seconds;
+}
+
+bool DeformationCore::outOfTime() const {
+  return budget_ > 0.0 && std::chrono::steady_clock::now() >= deadline_;
+}
+
 SolverStats DeformationCore::stats() const {
   SolverStats s = system_.stats();
   if (initSystem_) s += initSystem_->stats();
@@ -205,6 +216,7 @@ void DeformationCore::iterateReference(int maxIterations, double tolerance, Eige
       result.converged = true;
       return;
     }
+    if (outOfTime()) return;
   }
 }
 
@@ -239,6 +251,7 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
       result.converged = true;
       return;
     }
+    if (outOfTime()) return;
   }
 }
 
@@ -328,7 +341,7 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
         stationarityDue_ = true;
     }
     report(result);
-    if (result.converged) return;
+    if (result.converged || outOfTime()) return;
   }
 }
 
@@ -344,6 +357,8 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
                            " must be at least 1");
   if (!(relTolerance >= 0.0)) throw InvalidParameter("deformation: tolerance must be non-negative");
   const auto begin = std::chrono::steady_clock::now();
+  deadline_ = begin + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                          std::chrono::duration<double>(std::min(budget_, 1e9)));
   DeformationResult result;
   Eigen::MatrixXd X;
   if (!model_.iterative()) {
@@ -408,6 +423,7 @@ void DeformationSession::setRegularization(Regularization mode, double beta,
 }
 void DeformationSession::setBeta(double beta) { core_->setBeta(beta); }
 void DeformationSession::setHandleBasis(bool on) { core_->setHandleBasis(on); }
+void DeformationSession::setTimeBudget(double seconds) { core_->setTimeBudget(seconds); }
 void DeformationSession::setWeights(const Eigen::VectorXd& weights) { core_->setWeights(weights); }
 DeformationResult DeformationSession::solve(int maxIterations, double relTolerance) {
   return core_->solve(maxIterations, relTolerance);

@@ -45,6 +45,13 @@ class DeformationSession {
   /// response to affine motions of each group of handle vertices (again after new handles or
   /// weights), and later moves use it.
   void setHandleBasis(bool on);
+  /// Seconds a solve(), solveFrom() or resume() of the iterative energies may iterate (0, the
+  /// default: no limit): once they are spent, the run stops after the iteration in progress,
+  /// unconverged as at its iteration cap, and resume() continues it with the same steps. For
+  /// interactive use (the editor answers within it and iterates on while idle); where it stops
+  /// depends on the machine's speed.
+  /// \throw InvalidParameter for a negative or non-finite budget.
+  void setTimeBudget(double seconds);
 
   /// Minimizes the regularized energy with the handles at their targets.
   /// \throw InvalidParameter before any setHandles() or for maxIterations < 1 or a negative

@@ -12,6 +12,7 @@
 #include <diffreg/deformation/system.h>
 #include <diffreg/solver/solver.h>
 
+#include <chrono>
 #include <memory>
 #include <string>
 #include <vector>
@@ -30,6 +31,7 @@ class DeformationCore {
   void setBeta(double beta);
   void setWeights(const Eigen::VectorXd& weights);
   void setHandleBasis(bool on);
+  void setTimeBudget(double seconds);
 
   DeformationResult solve(int maxIterations, double relTolerance);
   DeformationResult solve() { return solve(options_.maxIterations, options_.relTolerance); }
@@ -71,6 +73,8 @@ class DeformationCore {
   double local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
                double reference = 0.0);
   void report(const DeformationResult& result) const;
+  // The run's time budget is spent (setTimeBudget; never without one).
+  bool outOfTime() const;
   // The elements in locality order (element_order.h) when the caller's order scatters
   // neighbours and the session may be regularized (DeformationOptions::reserveRegularization):
   // order[i] is the caller's element stored i-th, and ordered_ the copy of the
@@ -101,6 +105,9 @@ class DeformationCore {
   // decides stationarity: resume() takes that step first, so that a run continued in batches
   // takes the same steps as one run.
   bool stationarityDue_ = false;
+  // setTimeBudget(): seconds per run (0: none) and the running run's end.
+  double budget_ = 0.0;
+  std::chrono::steady_clock::time_point deadline_;
   LbfgsHistory lbfgs_{1};
   AndersonMixer anderson_{1};
   std::unique_ptr<HandleBasis> basis_;  // options_.handleBasis: for these handles and weights
