@@ -231,6 +231,46 @@ TEST_CASE("edit engine: refine continues an unconverged deformation until it con
   CHECK((s.positions() - once.positions()).cwiseAbs().maxCoeff() < 1e-9);
 }
 
+TEST_CASE("edit engine: updates within a time budget answer unconverged, refine() reaches the "
+          "shape of one run, and metrics say when the energy is not relaxed",
+          "[engine]") {
+  EditEngine s(shipped("bar.obj"));
+  EditState state = s.state();
+  CHECK(state.params.seconds == 0.0);  // no limit unless asked (the editor asks)
+  state.handles.push_back(handle(s, state, {0, 33, 66, 99, 132}));
+  state.handles.push_back(handle(s, state, {32, 65, 98, 131, 164}));
+  state.handles[1].targets.col(1).array() += 1.0;
+  EditState unlimited = state;
+  state.params.seconds = 1e-9;  // spent before the first step: one iteration per run
+  s.setState(state);
+  const UpdateReport first = s.update();
+  REQUIRE(first.solved);
+  CHECK_FALSE(first.converged);
+  // The run's own energy at its shape, not the relaxed one.
+  CHECK_FALSE(s.metrics().relaxed);
+  CHECK(s.metrics().energy == s.lastRun().energies.back());
+  int rounds = 0;
+  while (s.refine() && rounds < 5000) {
+    const UpdateReport u = s.update();
+    REQUIRE(u.solved);
+    CHECK(u.iterations <= 2);  // one step, or the L-BFGS step and its plain check
+    ++rounds;
+  }
+  REQUIRE(s.lastUpdate().converged);
+  CHECK(s.metrics().relaxed);
+
+  EditEngine once(shipped("bar.obj"));
+  once.setState(unlimited);
+  REQUIRE(once.update().converged);
+  CHECK(once.metrics().relaxed);
+  CHECK(s.metrics().energy == once.metrics().energy);
+  CHECK((s.positions() - once.positions()).cwiseAbs().maxCoeff() == 0.0);
+
+  EditState bad = state;
+  bad.params.seconds = -1.0;
+  CHECK_THROWS_AS(s.setState(bad), InvalidParameter);
+}
+
 namespace {
 
 /// The bar's two end handles as a HandleSet, the right one pulled up by `lift`.

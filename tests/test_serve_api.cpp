@@ -233,6 +233,8 @@ TEST_CASE("serve API: bad requests get a 4xx and leave the session unchanged", "
       {"PATCH", "/api/params", R"({"beta": 2})", 422},
       {"PATCH", "/api/params", R"({"t": -1})", 422},
       {"PATCH", "/api/params", R"({"iterations": 0})", 422},
+      {"PATCH", "/api/params", R"({"seconds": -0.5})", 422},
+      {"PATCH", "/api/params", R"({"seconds": "fast"})", 400},
       {"PATCH", "/api/params", R"({"energy": "elastic"})", 422},
       {"PATCH", "/api/params", R"({"solve": "lu"})", 422},
       {"PATCH", "/api/params", R"({"beta": "high"})", 400},
@@ -324,6 +326,13 @@ TEST_CASE("serve API: POST /api/refine continues an unconverged deformation", "[
   const json again = f.ok("POST", "/api/refine", "{}");
   CHECK(again.at("metrics").at("energy").get<double>() ==
         Approx(state.at("metrics").at("energy").get<double>()).epsilon(1e-12));
+  CHECK(state.at("metrics").at("energy_relaxed").get<bool>());  // converged: relaxed
   CHECK(f.send("GET", "/api/refine").first == 405);
+  // A time budget per update: the edit answers with its shape so far and says so.
+  json budget = f.ok("PATCH", "/api/params", R"({"seconds": 1e-9, "iterations": 5000})");
+  CHECK(budget.at("params").at("seconds").get<double>() == 1e-9);
+  budget = f.ok("PATCH", "/api/handles/1", R"({"move_to": [8, 2.5, 0]})");
+  CHECK_FALSE(budget.at("update").at("converged").get<bool>());
+  CHECK_FALSE(budget.at("metrics").at("energy_relaxed").get<bool>());
   CHECK(f.send("PATCH", "/api/params", R"({"local_step": "foo"})").first == 422);
 }

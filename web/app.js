@@ -524,6 +524,7 @@ function renderParams() {
   $('beta-out').textContent = p.beta.toFixed(2);
   $('beta-row').hidden = p.regularization !== 'uniform';
   set('iterations', p.iterations);
+  set('seconds', p.seconds);
   $('reference').checked = p.reference;
   $('continue').checked = p.continue_drags;
   set('scheme', p.scheme === 'rbf' ? 'rbf' : 'diffusion:' + p.order);
@@ -542,7 +543,8 @@ function renderMetrics() {
   $('m-ddev').textContent = fmt(m.d_dev);
   $('m-dist').textContent = fmt(m.dist);
   $('m-inv').textContent = String(m.inverted);
-  $('m-energy').textContent = fmt(m.energy);
+  // Unconverged: the run's own energy, an upper bound of the relaxed one.
+  $('m-energy').textContent = fmt(m.energy) + (m.energy_relaxed ? '' : ' (not relaxed)');
   const u = app.state.update, t = app.state.totals;
   const rows = [['weights', 'weights'], ['deform', 'deformation'], ['reference', 'reference']];
   $('solver').innerHTML = rows.map(([label, key]) => {
@@ -621,6 +623,7 @@ function wirePanel() {
   param('regularization', (v) => ({ regularization: v }));
   param('beta', (v) => { $('beta-out').textContent = Number(v).toFixed(2); return { beta: Number(v) }; });
   param('iterations', (v) => ({ iterations: Math.round(Number(v)) }));
+  param('seconds', (v) => ({ seconds: Number(v) }));
   $('reference').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { reference: $('reference').checked }));
   $('continue').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { continue_drags: $('continue').checked }));
   param('t', (v) => { $('t-out').textContent = fmt(10 ** Number(v)); return { t: 10 ** Number(v) }; });

@@ -91,7 +91,8 @@ double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd& positions,
                                       const RegularizationWeights& weights,
-                                      const Eigen::MatrixXd* reference) {
+                                      const Eigen::MatrixXd* reference,
+                                      const double* runEnergy) {
   checkPositions(disc, positions);
   const ResidualModel model(disc, energy);
   const Stacked e = model.residuals(positions);
@@ -104,9 +105,14 @@ DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
   m.inverted = countInverted(disc, positions);
   // Eq. 3 of the shape: the targets relaxed as the exact local step does (D_k above keeps
   // each element's own closest rotation, the paper's distortion).
-  Regularizer regularizer(disc);
-  regularizer.setWeights(weights);
-  m.energy = relaxedEnergy(model, regularizer, positions);
+  if (runEnergy) {
+    m.energy = *runEnergy;
+    m.relaxed = false;
+  } else {
+    Regularizer regularizer(disc);
+    regularizer.setWeights(weights);
+    m.energy = relaxedEnergy(model, regularizer, positions);
+  }
   if (reference) m.dist = rmsDistance(positions, *reference);
   return m;
 }

@@ -45,16 +45,22 @@ struct DeformationMetrics {
   double dDev = 0.0;           ///< area- (volume-) weighted standard deviation of D_k
   int inverted = 0;            ///< countInverted
   /// Eq. 3 at these positions: the total regularized energy with the targets relaxed by exact
-  /// local steps (relaxedEnergy), the value the deformation minimizes.
+  /// local steps (relaxedEnergy), the value the deformation minimizes; or, when `relaxed` is
+  /// false, the energy an unconverged run reported with its own targets (an upper bound).
   double energy = 0.0;
+  bool relaxed = true;
   std::optional<double> dist;  ///< rmsDistance to the reference, when one is given
 };
 
 /// All of the above for a deformation. `reference` (n x d), when given, is the same edit
-/// without regularization (or any other positions to compare with).
+/// without regularization (or any other positions to compare with). `runEnergy`, when given,
+/// is the energy an unconverged run reached at these positions with its targets: reported as
+/// it is (relaxed = false) instead of relaxing the targets, which costs as much as several
+/// iterations (about 1 s on a 43K surface), so that an interactive update stays within its time.
 DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd& positions,
                                       const RegularizationWeights& weights,
-                                      const Eigen::MatrixXd* reference = nullptr);
+                                      const Eigen::MatrixXd* reference = nullptr,
+                                      const double* runEnergy = nullptr);
 
 }  // namespace diffreg

@@ -119,11 +119,12 @@ std::unique_ptr<DeformationSession> newSession(const SessionSetup& setup, const 
 /// step, acceleration or history, or when the regularization needs the facet couplings the
 /// session did not reserve; new handles, targets or regularization (`regularized`: the edit's own,
 /// from `weights`; otherwise none); then a solve, a continued drag (only targets moved, with
-/// continueDrags) or, when `refine` and nothing changed, a resumed unconverged run. Returns
-/// whether it solved (then `result` holds the run) and the solver work in `work`.
+/// continueDrags) or, when `refine` and nothing changed, a resumed unconverged run, each within
+/// `seconds` (0: no limit). Returns whether it solved (then `result` holds the run) and the
+/// solver work in `work`.
 bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, const EditState& want,
                      bool regularized, const Eigen::VectorXd& weights, long weightsSerial,
-                     bool refine, DeformationResult& result, SolverStats& work) {
+                     bool refine, double seconds, DeformationResult& result, SolverStats& work) {
   const EditParams& p = want.params;
   const std::optional<EditState>& had = tracked.synced;
   const Regularization mode = regularized ? p.regularization : Regularization::None;
@@ -174,6 +175,7 @@ bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, con
   const bool refining = refine && !dirty && !tracked.converged;
   const bool solve = dirty || refining;
   if (solve) {
+    session.setTimeBudget(seconds);
     result = refining ? session.resume(p.iterations, p.tolerance)
              : drag   ? session.solveFrom(tracked.positions, p.iterations, p.tolerance)
                       : session.solve(p.iterations, p.tolerance);
@@ -283,6 +285,7 @@ void EditEngine::validate(const EditState& s) const {
   checkRange("sigma", p.rbf.sigma, kMinRbfSigma, kMaxRbfSigma, false);
   checkRange("iterations", p.iterations, 1, kMaxIterations, false);
   checkRange("tolerance", p.tolerance, 0.0, 1.0, false);
+  checkRange("seconds", p.seconds, 0.0, 3600.0, false);
   checkRange("history", p.history, 1, 100, false);
   if (p.givenWeights.size() != 0 && p.givenWeights.size() != n)
     throw InvalidParameter("given weights: " + std::to_string(p.givenWeights.size()) +
@@ -384,8 +387,8 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
   } else {
     const SessionSetup setup{*disc_, settings_, &progress_};
     DeformationResult result;
-    if (syncDeformation(setup, S.deform, want, true, weights, S.weightsSerial, refine_, result,
-                        report.deformation)) {
+    if (syncDeformation(setup, S.deform, want, true, weights, S.weightsSerial, refine_, p.seconds,
+                        result, report.deformation)) {
       result.positions.resize(0, 0);  // kept in S.deform.positions
       lastRun_ = std::move(result);
       deformed = true;
@@ -411,8 +414,12 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
   if (wantsReference(want)) {
     const SessionSetup setup{*disc_, settings_, nullptr};
     DeformationResult result;
+    // What the update's time budget has left (one iteration at least): the shape comes first,
+    // the reference catches up while the editor refines.
+    const double left =
+        p.seconds > 0.0 ? std::max(1e-9, p.seconds - report.deformationSeconds) : 0.0;
     referenceChanged = syncDeformation(setup, S.reference, want, false, weights, S.weightsSerial,
-                                       refine_, result, report.reference);
+                                       refine_, left, result, report.reference);
     report.converged = report.converged && S.reference.converged;
     report.referenceWork = workOf(report.reference);
   } else {
@@ -561,7 +568,11 @@ void EditEngine::computeMaps(const EditState& want, const Eigen::MatrixXd& posit
   const Eigen::MatrixXd* reference = nullptr;
   if (p.reference) reference = wantsReference(want) ? &S.reference.positions : &X;
   DeformationMetrics metrics;
-  if (p.metrics) metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference);
+  // An unconverged deformation reports its own energy: relaxing its targets would take longer
+  // than the update's iterations (EditParams::seconds).
+  const bool unconverged = S.deform.session && !S.deform.converged && !lastRun_.energies.empty();
+  const double* runEnergy = unconverged ? &lastRun_.energies.back() : nullptr;
+  if (p.metrics) metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference, runEnergy);
   ElementMaps maps = elementMaps(*disc_, p.energy, X);
   metrics_ = metrics;
   distortion_ = std::move(maps.distortion);

@@ -147,6 +147,7 @@ json paramsJson(const EditParams& p) {
           {"solve", toString(p.diffusion.solve)},
           {"iterations", p.iterations},
           {"tolerance", p.tolerance},
+          {"seconds", p.seconds},
           {"local_step", toString(p.localStep)},
           {"acceleration", toString(p.acceleration)},
           {"sigma", p.rbf.sigma},
@@ -379,7 +380,8 @@ ApiResponse imageExport(const EditEngine& s, const ApiRequest& r, const std::str
 void applyParams(const json& body, EditParams& q) {
   allowOnly(body,
             {"energy", "regularization", "beta", "scheme", "order", "t", "unit", "steps", "solve",
-             "iterations", "tolerance", "local_step", "acceleration", "sigma", "rbf_distance",
+             "iterations", "seconds", "tolerance", "local_step", "acceleration", "sigma",
+             "rbf_distance",
              "reference", "continue_drags"},
             "params");
   // An enum field, its error naming the field as the API calls it.
@@ -400,6 +402,7 @@ void applyParams(const json& body, EditParams& q) {
   if (body.contains("steps")) q.diffusion.steps = integer(body.at("steps"), "'steps'");
   choice("solve", q.diffusion.solve);
   if (body.contains("iterations")) q.iterations = integer(body.at("iterations"), "'iterations'");
+  if (body.contains("seconds")) q.seconds = number(body, "seconds");
   if (body.contains("tolerance")) q.tolerance = number(body, "tolerance");
   choice("local_step", q.localStep);
   choice("acceleration", q.acceleration);
@@ -672,7 +675,8 @@ std::string Api::stateJson(bool coalesced, int created) const {
                 {"d_dev", m.dDev},
                 {"dist", m.dist ? json(*m.dist) : json(nullptr)},
                 {"inverted", m.inverted},
-                {"energy", m.energy}}},
+                {"energy", m.energy},
+                {"energy_relaxed", m.relaxed}}},
               {"update",
                {{"solved", u.solved},
                 {"message", u.message},

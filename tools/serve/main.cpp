@@ -98,6 +98,11 @@ int runServe(int argc, char** argv) {
   if (vm.count("handles")) handles = readHandles(vm["handles"].as<std::string>(), mesh);
   auto session = std::make_unique<EditEngine>(std::move(mesh));
   if (!handles.empty()) session->setHandles(handles);
+  {  // the editor answers within its time budget and refines while idle
+    EditState editor = session->state();
+    editor.params.seconds = kEditorSeconds;
+    session->setState(std::move(editor));
+  }
   Api api(std::move(session), std::filesystem::path(input).filename().string());
 
   ServerOptions options;
