@@ -144,6 +144,7 @@ class PyDeformationSession {
                                 params.getFloat("beta"), w);
   }
   void setBeta(double beta) { session_->setBeta(beta); }
+  void setTimeBudget(double seconds) { session_->setTimeBudget(seconds); }
   void setWeights(const py::object& weights) {
     session_->setWeights(toVector(weights, "weights", shape_->mesh.numVertices()));
   }
@@ -264,6 +265,11 @@ void bindDeformationSession(py::module_& m) {
            "set_beta(beta)\n\nUniform regularization with this beta.")
       .def("set_weights", &PyDeformationSession::setWeights, py::arg("weights"),
            "set_weights(weights)\n\nNon-uniform regularization with these vertex weights.")
+      .def("set_time_budget", &PyDeformationSession::setTimeBudget, py::arg("seconds"),
+           "set_time_budget(seconds)\n\nSeconds each solve, solve_from or resume may iterate "
+           "(0: no limit, the default): the run then stops unconverged after the iteration in "
+           "progress, and resume() continues it with the steps of one run. For interactive "
+           "use; where it stops depends on the machine.")
       .def("solve", &PyDeformationSession::solve, py::arg("iterations") = py::none(),
            py::arg("tolerance") = py::none(),
            ("solve(iterations=None, tolerance=None) -> (X, info)\n\nFrom the rest shape. X "

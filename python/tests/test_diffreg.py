@@ -298,6 +298,20 @@ def test_deformation_session_reuses_its_factorization():
     assert s2["symbolic"] == s0["symbolic"] and s2["numeric"] > s1["numeric"]
     Xr, info = session.resume()
     assert info["initial_guess"] == "continued" and info["converged"]
+    # A time budget spent at once: one iteration per call, the same end as one run.
+    session.set_beta(0.4)
+    once, info_once = session.solve()
+    session.set_time_budget(1e-9)
+    X, info = session.solve()
+    calls = 1
+    while not info["converged"] and calls < 10000:
+        X, info = session.resume()
+        calls += 1
+    assert info["converged"] and calls > 1
+    np.testing.assert_array_equal(X, once)
+    session.set_time_budget(0)
+    with pytest.raises(ValueError):
+        session.set_time_budget(-1)
     session.set_regularization("none")
     Xf, info = session.solve_from(Xr, iterations=100)
     assert info["initial_guess"] == "given"
