@@ -2,6 +2,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/local_step.h>
+#include <diffreg/deformation/parallel.h>
 #include <diffreg/deformation/residual_model.h>
 #include <diffreg/deformation/rotation.h>
 
@@ -9,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 namespace diffreg {
 namespace {
@@ -58,25 +60,44 @@ ElementMaps elementMaps(const Discretization& disc, Energy energy,
   return {model.distortion(e), elementSmoothness(disc, model.facetDifference(e))};
 }
 
-int countInverted(const Discretization& disc, const Eigen::MatrixXd& X) {
-  checkPositions(disc, X);
+namespace {
+
+// Whether element k is inverted at X (countInverted), with fixed-size D x D matrices.
+template <int D>
+bool inverted(const Discretization& disc, const Eigen::MatrixXd& X, int k) {
   const Eigen::MatrixXi& el = disc.elements();
-  int count = 0;
-  for (int k = 0; k < disc.numElements(); ++k) {
-    Eigen::MatrixXd F = Eigen::MatrixXd::Zero(disc.dim(), disc.dim());
-    const auto G = disc.gradient(k);
-    for (int i = 0; i < el.cols(); ++i) F += X.row(el(k, i)).transpose() * G.row(i);
-    if (disc.kind() != MeshKind::Surface) {
-      if (F.determinant() <= 0.0) ++count;
-      continue;
-    }
-    const Eigen::Matrix3d F3 = F;
+  const auto G = disc.gradient(k);
+  Eigen::Matrix<double, D, D> F = Eigen::Matrix<double, D, D>::Zero();
+  for (int i = 0; i < el.cols(); ++i)
+    for (int r = 0; r < D; ++r)
+      for (int c = 0; c < D; ++c) F(r, c) += X(el(k, i), r) * G(i, c);
+  if constexpr (D == 2) {
+    return F.determinant() <= 0.0;
+  } else {
+    if (disc.kind() != MeshKind::Surface) return F.determinant() <= 0.0;
     Eigen::Vector3d sigma;
-    const Eigen::Vector3d Rn = closestRotation<3>(F3, sigma) * disc.normals().row(k).transpose();
+    const Eigen::Vector3d Rn = closestRotation<3>(F, sigma) * disc.normals().row(k).transpose();
     const Eigen::Vector3d a = (X.row(el(k, 1)) - X.row(el(k, 0))).transpose();
     const Eigen::Vector3d b = (X.row(el(k, 2)) - X.row(el(k, 0))).transpose();
-    if (a.cross(b).dot(Rn) <= 0.0) ++count;
+    return a.cross(b).dot(Rn) <= 0.0;
   }
+}
+
+}  // namespace
+
+int countInverted(const Discretization& disc, const Eigen::MatrixXd& X) {
+  checkPositions(disc, X);
+  const int m = disc.numElements();
+  constexpr int kGrain = 4096;
+  std::vector<int> counts(static_cast<size_t>(parallel::numChunks(m, kGrain)), 0);
+  parallel::forChunks(m, kGrain, [&](int chunk, int begin, int end) {
+    int count = 0;
+    for (int k = begin; k < end; ++k)
+      count += disc.dim() == 2 ? inverted<2>(disc, X, k) : inverted<3>(disc, X, k);
+    counts[static_cast<size_t>(chunk)] = count;
+  });
+  int count = 0;
+  for (int c : counts) count += c;
   return count;
 }
 
