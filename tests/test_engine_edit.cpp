@@ -264,6 +264,8 @@ TEST_CASE("edit engine: updates within a time budget answer unconverged, refine(
   REQUIRE(once.update().converged);
   CHECK(once.metrics().relaxed);
   CHECK(s.metrics().energy == once.metrics().energy);
+  REQUIRE(once.metrics().dist.has_value());
+  CHECK(s.metrics().dist == once.metrics().dist);
   CHECK((s.positions() - once.positions()).cwiseAbs().maxCoeff() == 0.0);
 
   EditState bad = state;

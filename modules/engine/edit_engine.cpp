@@ -430,11 +430,18 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
 
   // Per-element maps and the Table-1 metrics of a deformation.
   timer.reset();
-  if (deformed || weightsChanged || referenceChanged || mapsParamsChanged(want))
+  if (deformed || weightsChanged || mapsParamsChanged(want))
     refreshMaps(want, positions);
+  else if (referenceChanged)  // only the reference moved (it refines after the shape): Dist
+    refreshDist(want, positions);
   report.metricsSeconds = timer.seconds();
   positions_ = positions;
   weights_ = weights;
+}
+
+void EditEngine::refreshDist(const EditState& want, const Eigen::MatrixXd& positions) {
+  if (want.params.metrics && want.params.reference && wantsReference(want))
+    metrics_.dist = rmsDistance(positions.leftCols(disc_->dim()), systems_->reference.positions);
 }
 
 bool EditEngine::mapsParamsChanged(const EditState& want) const {

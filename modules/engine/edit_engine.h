@@ -267,6 +267,9 @@ class EditEngine {
   bool mapsParamsChanged(const EditState& want) const;
   // computeMaps for a deformation (or the rest shape without handles), zeros without one.
   void refreshMaps(const EditState& want, const Eigen::MatrixXd& positions);
+  // Dist alone, when only the reference moved: the rest of the maps and metrics (the relaxed
+  // energy: a second on a 43K surface) belong to the unchanged shape.
+  void refreshDist(const EditState& want, const Eigen::MatrixXd& positions);
   // Whether `want` asks for the unregularized reference (a regularized edit with handles).
   static bool wantsReference(const EditState& want);
   // distortion_, smoothness_ and metrics_ for the shape `positions` (n x 3).
