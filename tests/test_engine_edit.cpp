@@ -397,3 +397,23 @@ TEST_CASE("edit engine: updateOrThrow rethrows the failure's own exception", "[e
   p.givenWeights = Eigen::VectorXd::Zero(3);
   CHECK_THROWS_WITH(engine.setEdit(barHandles(bar, 1.0), p), Catch::Contains("given weights"));
 }
+
+TEST_CASE("edit engine: without the deformation the metrics stay empty while the reference "
+          "refines", "[engine]") {
+  EditEngine s(shipped("bar.obj"));
+  EditState state = s.state();
+  state.params.deform = false;  // the weights filters' setting: the shape stays at rest
+  state.params.seconds = 1e-9;  // the reference then refines for several updates
+  state.handles.push_back(handle(s, state, {0, 33, 66, 99, 132}));
+  state.handles.push_back(handle(s, state, {32, 65, 98, 131, 164}));
+  s.setState(state);
+  REQUIRE(s.update().solved);
+  state.handles[1].targets.col(1).array() += 1.0;  // a drag
+  s.setState(state);
+  int rounds = 0;
+  do {
+    REQUIRE(s.update().solved);
+    CHECK(s.metrics().dMax == 0.0);
+    CHECK_FALSE(s.metrics().dist.has_value());
+  } while (s.refine() && ++rounds < 5000);
+}

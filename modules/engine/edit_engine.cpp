@@ -440,7 +440,8 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
 }
 
 void EditEngine::refreshDist(const EditState& want, const Eigen::MatrixXd& positions) {
-  if (want.params.metrics && want.params.reference && wantsReference(want))
+  // As refreshMaps: without the deformation (deform off) the metrics stay zero, Dist unset.
+  if (want.params.deform && want.params.metrics && want.params.reference && wantsReference(want))
     metrics_.dist = rmsDistance(positions.leftCols(disc_->dim()), systems_->reference.positions);
 }
 

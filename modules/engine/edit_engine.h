@@ -58,8 +58,10 @@ struct RbfSettings {
   bool clamp = true;
 };
 
-/// The editor's time budget per update (EditParams::seconds): an answer to a drag within about
-/// a quarter of a second on any mesh, refined while idle.
+/// The editor's time budget per update (EditParams::seconds): a drag's iterations take about a
+/// quarter of a second on any mesh (plus one iteration of the reference and the maps; a new
+/// factorization or weights solve, and relaxing the energy of a shape that has just converged,
+/// come on top), and the shape is refined while idle.
 constexpr double kEditorSeconds = 0.25;
 
 /// Everything about an edit that is not a handle.
@@ -80,10 +82,11 @@ struct EditParams {
   /// Local/global iterations per update (ARAP; ASAP on surfaces and solids). A run that stops
   /// here unconverged continues with refine() while the editor is idle.
   int iterations = 50;
-  /// Seconds each update (and refine()) may iterate, for the deformation and again for the
-  /// reference (DeformationSession::setTimeBudget): a run that stops here unconverged continues
-  /// with refine(). 0: no limit, the iterations alone cap the run. The editor's default is
-  /// kEditorSeconds.
+  /// Seconds the deformation of each update (and refine()) may take
+  /// (DeformationSession::setTimeBudget: its start, e.g. a factorization, included, and one
+  /// iteration at least); the reference gets what the deformation leaves of them, one
+  /// iteration at least. A run that stops here unconverged continues with refine(). 0: no
+  /// limit, the iterations alone cap the run. The editor's default is kEditorSeconds.
   double seconds = 0.0;
   /// Stationarity tolerance (DeformationOptions::relTolerance).
   double tolerance = kDefaultTolerance;
