@@ -12,8 +12,9 @@ struct HeapTuning {
 
 /// With glibc: arrays up to 32 MiB are taken from the main heap and kept there when freed
 /// (rather than mapped and unmapped each time), the heap reserves 256 MiB ahead (address space
-/// only: memory is committed when touched), and that reserve is advised for transparent huge
-/// pages (MADV_HUGEPAGE; the kernel's default "madvise" mode grants them only on request).
+/// only: memory is committed when touched, 2 MiB at a time where huge pages are granted), and
+/// that reserve is advised for transparent huge pages (MADV_HUGEPAGE; the kernel's default
+/// "madvise" mode grants them only on request).
 /// Past the reserve the heap grows as glibc's default would.
 /// A fresh page costs a fault and a clearing on first touch; a one-shot deformation of a 10K
 /// mesh takes 7,500 of them with 4 KiB pages and about 1,000 with this (docs/benchmarks.md).

@@ -45,8 +45,9 @@ class DeformationSession {
   /// response to affine motions of each group of handle vertices (again after new handles or
   /// weights), and later moves use it.
   void setHandleBasis(bool on);
-  /// Seconds a solve(), solveFrom() or resume() of the iterative energies may iterate (0, the
-  /// default: no limit): once they are spent, the run stops after the iteration in progress,
+  /// Seconds a solve(), solveFrom() or resume() of the iterative energies may take, counted from
+  /// the call (a first factorization included; 0, the default: no limit): once they are spent,
+  /// the run stops after the iteration in progress (one at least),
   /// unconverged as at its iteration cap, and resume() continues it with the same steps. For
   /// interactive use (the editor answers within it and iterates on while idle); where it stops
   /// depends on the machine's speed.
