@@ -618,12 +618,16 @@ async function showState(state) {
 }
 
 function wirePanel() {
-  const param = (id, toBody) => $(id).addEventListener('input', () => edit('params', 'PATCH', '/api/params', toBody($(id).value)));
+  // toBody returns null for an input that says nothing yet (an emptied number field).
+  const param = (id, toBody) => $(id).addEventListener('input', () => {
+    const body = toBody($(id).value);
+    if (body) edit('params', 'PATCH', '/api/params', body);
+  });
   param('energy', (v) => ({ energy: v }));
   param('regularization', (v) => ({ regularization: v }));
   param('beta', (v) => { $('beta-out').textContent = Number(v).toFixed(2); return { beta: Number(v) }; });
   param('iterations', (v) => ({ iterations: Math.round(Number(v)) }));
-  param('seconds', (v) => ({ seconds: Number(v) }));
+  param('seconds', (v) => (v === '' ? null : { seconds: Number(v) }));  // empty: no change
   $('reference').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { reference: $('reference').checked }));
   $('continue').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { continue_drags: $('continue').checked }));
   param('t', (v) => { $('t-out').textContent = fmt(10 ** Number(v)); return { t: 10 ** Number(v) }; });
