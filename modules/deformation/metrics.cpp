@@ -71,10 +71,12 @@ bool inverted(const Discretization& disc, const Eigen::MatrixXd& X, int k) {
   for (int i = 0; i < el.cols(); ++i)
     for (int r = 0; r < D; ++r)
       for (int c = 0; c < D; ++c) F(r, c) += X(el(k, i), r) * G(i, c);
+  // The determinant by LU with partial pivoting, as Eigen computes it for dynamic sizes (the
+  // closed form of fixed sizes may round a nearly degenerate element's the other way).
   if constexpr (D == 2) {
-    return F.determinant() <= 0.0;
+    return F.partialPivLu().determinant() <= 0.0;
   } else {
-    if (disc.kind() != MeshKind::Surface) return F.determinant() <= 0.0;
+    if (disc.kind() != MeshKind::Surface) return F.partialPivLu().determinant() <= 0.0;
     Eigen::Vector3d sigma;
     const Eigen::Vector3d Rn = closestRotation<3>(F, sigma) * disc.normals().row(k).transpose();
     const Eigen::Vector3d a = (X.row(el(k, 1)) - X.row(el(k, 0))).transpose();
