@@ -106,5 +106,7 @@ double cgalOneShot(const std::string& path, const std::vector<int>& handles,
 void addConvergenceCases(std::vector<Case>& cases, const Sizes& sizes);
 /// oneshot/<mesh>: the diffreg tool from reading to writing against CGAL read + 1 iteration.
 void addOneShotCases(std::vector<Case>& cases, const Sizes& sizes);
+/// editor/<mesh>: a drag step of the edit engine with the editor's time budget and without.
+void addEditorCases(std::vector<Case>& cases, const Sizes& sizes);
 
 }  // namespace diffreg::bench

@@ -5,6 +5,7 @@
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
 #include <diffreg/core/timer.h>
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/solver/blas_threads.h>
 #include <diffreg/solver/solver.h>
 
@@ -49,6 +50,12 @@ void printUsage(std::ostream& out) {
          "                        handle moves of 1 and 5 iterations; fitted growth exponents\n"
          "  peer/sphere-SIZE      plain ARAP against CGAL's Surface_mesh_deformation\n"
          "  memory/sphere-SIZE    peak resident memory of a surface session (child process)\n"
+         "  converge/MESH/MODE    iterations and time to an energy gap, plain vs accelerated,\n"
+         "                        and CGAL's (shared meshes)\n"
+         "  oneshot/MESH          the diffreg tool from reading to writing against CGAL's read,\n"
+         "                        preprocess and 1 iteration (shared surfaces)\n"
+         "  editor/MESH           a drag step of the edit engine within the editor's time budget\n"
+         "                        and with 50 iterations (shared surfaces)\n"
          "--filter runs only the cases whose name contains SUBSTRING. The shared test meshes\n"
          "(--meshes, else $DIFFREG_SHARED_MESHES, else ../shared/meshes beside the source tree)\n"
          "are used when present; their cases are skipped otherwise. --plain-cap N runs the plain\n"
@@ -426,6 +433,26 @@ void printOneShot(const std::vector<Result>& results, std::ostream& out) {
   out << "\n";
 }
 
+void printEditor(const std::vector<Result>& results, std::ostream& out) {
+  Table t({"case", "V", "drag step, time budget (ms)", "iterations", "drag step, 50 iterations (ms)",
+           "iterations", "ratio"});
+  bool any = false;
+  for (const Result& r : results) {
+    if (r.c->group != "editor" || r.medians.empty()) continue;
+    any = true;
+    t.add({caseLabel(r), std::to_string(r.prepared.vertices), ms(r.get("budget")),
+           num(r.get("budget_iterations"), 0), ms(r.get("unlimited")),
+           num(r.get("unlimited_iterations"), 0), num(r.get("unlimited") / r.get("budget"), 2)});
+  }
+  if (!any) return;
+  out << "Editor: one drag step of the edit engine as diffreg serve runs it (non-uniform ARAP, "
+         "diffused weights, the unregularized reference, the Table-1 metrics; from the rest "
+         "shape), with the editor's time budget per update (EditParams::seconds = "
+      << kEditorSeconds << " s) and with 50 iterations and no time limit.\n\n";
+  t.print(out);
+  out << "\n";
+}
+
 void printMemory(const std::vector<Result>& results, std::ostream& out) {
   const std::vector<std::string> stages{"start",   "mesh",    "discretization",
                                         "weights", "session", "solve", "basis", "edit"};
@@ -687,6 +714,7 @@ int run(const Options& options) {
   addPeerCases(cases, sizes);
   addConvergenceCases(cases, sizes);
   addOneShotCases(cases, sizes);
+  addEditorCases(cases, sizes);
 
   std::vector<Result> results;
   for (const Case& c : cases)
@@ -711,6 +739,7 @@ int run(const Options& options) {
   printDeformation(results, out);
   printPeer(results, out);
   printOneShot(results, out);
+  printEditor(results, out);
   printMemory(results, out);
   printConvergence(results, out);
   const nlohmann::json targets = evaluateTargets(results, out);
