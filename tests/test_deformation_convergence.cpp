@@ -231,6 +231,18 @@ TEST_CASE("with uniform beta = 1 every element is held only by its neighbours, a
   }
 }
 
+namespace {
+
+// A session of the bent bar's edit with options `o`, handles and targets set.
+std::unique_ptr<DeformationSession> bentSession(const Bent& b, const DeformationOptions& o) {
+  auto s = std::make_unique<DeformationSession>(*b.disc, o);
+  s->setHandles(b.handles);
+  s->setTargets(b.targets);
+  return s;
+}
+
+}  // namespace
+
 TEST_CASE("a run continued in batches takes the steps of one run, also when a batch ends "
           "right before the plain step that decides stationarity",
           "[deformation][convergence]") {
@@ -238,12 +250,7 @@ TEST_CASE("a run continued in batches takes the steps of one run, also when a ba
     for (Regularization mode : kModes) {
       const Bent b = bentBar(kind);
       const DeformationOptions o = optionsFor(b, Energy::Arap, mode);
-      auto session = [&] {
-        auto s = std::make_unique<DeformationSession>(*b.disc, o);
-        s->setHandles(b.handles);
-        s->setTargets(b.targets);
-        return s;
-      };
+      auto session = [&] { return bentSession(b, o); };
       const DeformationResult once = session()->solve();
       INFO(toString(kind) << " " << toString(mode) << ": " << once.iterations << " iterations");
       REQUIRE(once.converged);
@@ -356,12 +363,7 @@ TEST_CASE("a run under a time budget stops unconverged and continues with the st
         const Bent b = bentBar(kind);
         DeformationOptions o = optionsFor(b, Energy::Arap, mode);
         o.acceleration = acceleration;
-        auto session = [&] {
-          auto s = std::make_unique<DeformationSession>(*b.disc, o);
-          s->setHandles(b.handles);
-          s->setTargets(b.targets);
-          return s;
-        };
+        auto session = [&] { return bentSession(b, o); };
         const DeformationResult once = session()->solve();
         INFO(toString(kind) << " " << toString(mode) << " " << toString(acceleration) << ": "
                             << once.iterations << " iterations");
