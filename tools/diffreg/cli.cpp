@@ -55,10 +55,14 @@ int runCommand(const std::function<int()>& body) {
     printError(e.what());
     return 2;
   } catch (const std::bad_alloc&) {
-    printError("out of memory (" + (currentInput().empty()
-                                        ? std::string("before reading any input")
-                                        : "while working on '" + currentInput() + "'") +
-               ")");
+    try {  // the unwinding freed the run's memory; should even this message not fit, a fixed one
+      printError("out of memory (" + (currentInput().empty()
+                                          ? std::string("before reading any input")
+                                          : "while working on '" + currentInput() + "'") +
+                 ")");
+    } catch (...) {
+      std::fputs("diffreg: error: out of memory\n", stderr);
+    }
     return 1;
   } catch (const std::exception& e) {
     printError(e.what());
