@@ -31,21 +31,15 @@ struct EditorPair {
 // factorizations and weights of the load are not part of a drag step).
 void prepareEditor(Editor& e, const Mesh& mesh, const EditorPair& p, double seconds) {
   e.engine = std::make_unique<EditEngine>(mesh);
-  e.state = e.engine->state();
-  e.state.params.seconds = seconds;
   const Eigen::MatrixXd T = moveTargets(p.rest, p.fixed, p.moved, 0.10, 3);
-  const auto fixedRows = static_cast<Eigen::Index>(p.fixed.size());
-  EditHandle held, pulled;
-  held.id = e.state.nextId++;
-  held.name = "held";
-  held.vertices = p.fixed;
-  held.targets = T.topRows(fixedRows);
-  pulled.id = e.state.nextId++;
-  pulled.name = "pulled";
-  pulled.vertices = p.moved;
-  pulled.targets = T.bottomRows(static_cast<Eigen::Index>(p.moved.size()));
-  e.state.handles = {held, pulled};
-  e.engine->setState(e.state);
+  HandleSet handles;
+  handles.handles = {
+      Handle{"held", p.fixed, T.topRows(static_cast<Eigen::Index>(p.fixed.size()))},
+      Handle{"pulled", p.moved, T.bottomRows(static_cast<Eigen::Index>(p.moved.size()))}};
+  EditParams params = e.engine->state().params;
+  params.seconds = seconds;
+  e.engine->setEdit(handles, params);
+  e.state = e.engine->state();
   e.engine->update();
 }
 
