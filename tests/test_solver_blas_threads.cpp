@@ -58,6 +58,9 @@ double idleCpu(double seconds) {
 }  // namespace
 
 TEST_CASE("BLAS threads reserved for supernodal factorizations", "[solver]") {
+#ifdef DIFFREG_STATIC_OPENBLAS  // the build linked OpenBLAS's archive in: its controls must be found
+  REQUIRE(blasThreadsControllable());
+#endif
   if (!blasThreadsControllable()) {
     WARN("the BLAS has no run-time thread control (not OpenBLAS): nothing to check");
     return;

@@ -10,7 +10,7 @@ cd "$here"
 what="${1:-demo}"
 
 packages=(build-essential cmake pkg-config libopenmesh-dev libeigen3-dev libcgal-dev catch2
-          libboost-program-options-dev libsuitesparse-dev libopenblas0-pthread nlohmann-json3-dev
+          libboost-program-options-dev libsuitesparse-dev libopenblas0-pthread libopenblas-pthread-dev nlohmann-json3-dev
           libpng-dev libpugixml-dev libtbb-dev tetgen doxygen libcpp-httplib-dev libjs-three
           chromium nodejs clang libclang-rt-14-dev python3-dev pybind11-dev python3-numpy
           python3-pytest python3-matplotlib libcairo2-dev fonts-dejavu-core)
