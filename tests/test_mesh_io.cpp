@@ -3,6 +3,7 @@
 #include <diffreg/core/colormap.h>
 #include <diffreg/core/error.h>
 #include <diffreg/mesh/io.h>
+#include <diffreg/mesh/shapes.h>
 
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/IO/MeshIO.hh>
@@ -461,6 +462,46 @@ TEST_CASE("OBJ, OFF and OM round trips", "[mesh][io]") {
     CHECK(back.elementScalar(prop::distortion) == mesh.elementScalar(prop::distortion));
     CHECK(back.vertexScalarNames() == std::vector<std::string>{prop::weight});
   }
+}
+
+TEST_CASE("large meshes, formatted in blocks on several threads, round-trip in order",
+          "[mesh][io]") {
+  // More rows than one formatting block (1024) of vertices and of faces, with coordinates and
+  // values that need all 17 digits: any block written out of place or twice shows here.
+  TempDir tmp;
+  Mesh mesh = makeSphere(1.0, 90, 50);
+  REQUIRE(mesh.numVertices() > 4 * 1024);
+  Eigen::MatrixXd p = mesh.positions();
+  for (Eigen::Index i = 0; i < p.rows(); ++i) p.row(i) *= 1.0 + std::sqrt(2.0) * 1e-3 * i;
+  mesh.setPositions(p);
+  const Eigen::VectorXd w = Eigen::VectorXd::LinSpaced(mesh.numVertices(), 0.0, M_PI).array().sin();
+  const Eigen::VectorXd d = Eigen::VectorXd::LinSpaced(mesh.numElements(), 1.0 / 3.0, 7.0);
+  mesh.setVertexScalar(prop::weight, w);
+  mesh.setElementScalar(prop::distortion, d);
+  for (const char* ext : {"obj", "off", "ply"}) {
+    INFO(ext);
+    const std::string path = tmp / (std::string("big.") + ext);
+    writeMesh(path, mesh);
+    const Mesh back = readMesh(path);
+    CHECK(back.positions() == p);
+    CHECK(back.elements() == mesh.elements());
+  }
+  const Ply ply = parsePly(tmp / "big.ply");
+  const auto& vs = ply.rows.at("vertex");
+  const auto& fs_ = ply.rows.at("face");
+  REQUIRE(vs.size() == static_cast<size_t>(w.size()));
+  REQUIRE(fs_.size() == static_cast<size_t>(d.size()));
+  bool inOrder = true;
+  for (Eigen::Index i = 0; i < w.size(); ++i) inOrder = inOrder && vs[i][3] == w[i];
+  for (Eigen::Index k = 0; k < d.size(); ++k) inOrder = inOrder && fs_[k][4] == d[k];
+  CHECK(inOrder);
+
+  Mesh tet = makeTetBox(1.0, 1.0 / 3.0, 0.7, 12, 10, 10);
+  REQUIRE(tet.numVertices() > 1024);
+  writeMesh(tmp / "big.mesh", tet);
+  const Mesh tetBack = readMesh(tmp / "big.mesh");
+  CHECK(tetBack.positions() == tet.positions());
+  CHECK(tetBack.elements() == tet.elements());
 }
 
 TEST_CASE("a failed write leaves the existing file untouched and no temp file", "[mesh][io]") {

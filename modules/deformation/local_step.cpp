@@ -1,7 +1,7 @@
 #include <diffreg/deformation/local_step.h>
 
 #include <diffreg/core/error.h>
-#include <diffreg/deformation/parallel.h>
+#include <diffreg/core/parallel.h>
 #include <diffreg/deformation/rotation.h>
 
 #include <algorithm>

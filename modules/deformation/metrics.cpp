@@ -2,7 +2,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/local_step.h>
-#include <diffreg/deformation/parallel.h>
+#include <diffreg/core/parallel.h>
 #include <diffreg/deformation/residual_model.h>
 #include <diffreg/deformation/rotation.h>
 

@@ -1,6 +1,6 @@
 #include <diffreg/deformation/residual_model.h>
 
-#include <diffreg/deformation/parallel.h>
+#include <diffreg/core/parallel.h>
 
 #include <Eigen/Dense>
 #include <algorithm>

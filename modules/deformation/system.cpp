@@ -1,7 +1,7 @@
 #include <diffreg/deformation/system.h>
 
 #include <diffreg/core/error.h>
-#include <diffreg/deformation/parallel.h>
+#include <diffreg/core/parallel.h>
 
 #include <Eigen/Dense>
 #include <algorithm>

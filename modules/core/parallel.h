@@ -1,7 +1,8 @@
 // Data-parallel loops for the per-element work of the deformation module (local step, residuals,
-// energy, right-hand side), on oneTBB: its workers sleep between loops (they leave the cores to
-// the sparse solver and BLAS), and the calling thread works too. OpenMP (libgomp) was measured
-// and rejected: its threads spin at the end of every loop (docs/benchmarks.md).
+// energy, right-hand side) and the text writers' formatting (mesh/io.cpp), on oneTBB: its
+// workers sleep between loops (they leave the cores to the sparse solver and BLAS), and the
+// calling thread works too. OpenMP (libgomp) was measured and rejected: its threads spin at the
+// end of every loop (docs/benchmarks.md).
 #pragma once
 
 #include <functional>

@@ -1,4 +1,4 @@
-#include <diffreg/deformation/parallel.h>
+#include <diffreg/core/parallel.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
