@@ -466,11 +466,13 @@ TEST_CASE("OBJ, OFF and OM round trips", "[mesh][io]") {
 
 TEST_CASE("large meshes, formatted in blocks on several threads, round-trip in order",
           "[mesh][io]") {
-  // More rows than one formatting block (1024) of vertices and of faces, with coordinates and
-  // values that need all 17 digits: any block written out of place or twice shows here.
+  // More rows than one formatting block (1024) of vertices, and faces over more than one
+  // round of 64 blocks, with coordinates and values that need all 17 digits: any block written
+  // out of place or twice shows here.
   TempDir tmp;
-  Mesh mesh = makeSphere(1.0, 90, 50);
+  Mesh mesh = makeSphere(1.0, 200, 180);
   REQUIRE(mesh.numVertices() > 4 * 1024);
+  REQUIRE(mesh.numElements() > 64 * 1024);
   Eigen::MatrixXd p = mesh.positions();
   for (Eigen::Index i = 0; i < p.rows(); ++i) p.row(i) *= 1.0 + std::sqrt(2.0) * 1e-3 * i;
   mesh.setPositions(p);
@@ -491,10 +493,13 @@ TEST_CASE("large meshes, formatted in blocks on several threads, round-trip in o
   const auto& fs_ = ply.rows.at("face");
   REQUIRE(vs.size() == static_cast<size_t>(w.size()));
   REQUIRE(fs_.size() == static_cast<size_t>(d.size()));
-  bool inOrder = true;
-  for (Eigen::Index i = 0; i < w.size(); ++i) inOrder = inOrder && vs[i][3] == w[i];
-  for (Eigen::Index k = 0; k < d.size(); ++k) inOrder = inOrder && fs_[k][4] == d[k];
-  CHECK(inOrder);
+  Eigen::Index firstWrongVertex = -1, firstWrongFace = -1;
+  for (Eigen::Index i = 0; i < w.size() && firstWrongVertex < 0; ++i)
+    if (vs[i][3] != w[i]) firstWrongVertex = i;
+  for (Eigen::Index k = 0; k < d.size() && firstWrongFace < 0; ++k)
+    if (fs_[k][4] != d[k]) firstWrongFace = k;
+  CHECK(firstWrongVertex == -1);
+  CHECK(firstWrongFace == -1);
 
   Mesh tet = makeTetBox(1.0, 1.0 / 3.0, 0.7, 12, 10, 10);
   REQUIRE(tet.numVertices() > 1024);

@@ -58,7 +58,7 @@ double idleCpu(double seconds) {
 }  // namespace
 
 TEST_CASE("BLAS threads reserved for supernodal factorizations", "[solver]") {
-#ifdef DIFFREG_STATIC_OPENBLAS  // the build linked OpenBLAS's archive in: its controls must be found
+#ifdef DIFFREG_STATIC_OPENBLAS  // OpenBLAS's archive is linked in: its controls must be found
   REQUIRE(blasThreadsControllable());
 #endif
   if (!blasThreadsControllable()) {

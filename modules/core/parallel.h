@@ -22,7 +22,10 @@ int numChunks(int n, int grain);
 /// \pre grain >= 1.
 void forChunks(int n, int grain, const std::function<void(int chunk, int begin, int end)>& body);
 
-/// Threads a loop uses, the caller included (the hardware concurrency, 1 to 8).
+/// Threads a loop uses, the caller included (the hardware concurrency, 1 to 8). The first loop
+/// that runs chunks concurrently caps oneTBB's parallelism for the whole process at this
+/// number (a tbb::global_control kept until exit): a host that only reads and writes meshes
+/// gets the cap too, when it writes one of more than 1024 rows.
 int threads();
 
 }  // namespace diffreg::parallel

@@ -1,8 +1,8 @@
 #include <diffreg/deformation/metrics.h>
 
 #include <diffreg/core/error.h>
-#include <diffreg/deformation/local_step.h>
 #include <diffreg/core/parallel.h>
+#include <diffreg/deformation/local_step.h>
 #include <diffreg/deformation/residual_model.h>
 #include <diffreg/deformation/rotation.h>
 

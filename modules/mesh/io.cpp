@@ -164,7 +164,8 @@ void writeRows(TextOut& out, int rows, const Line& line) {
   std::vector<std::unique_ptr<TextOut>> pieces;
   for (int first = 0; first < rows; first += kRowBlock * kBlockRound) {
     const int blocks = std::min(kBlockRound, (rows - first + kRowBlock - 1) / kRowBlock);
-    while (static_cast<int>(pieces.size()) < blocks) pieces.push_back(std::make_unique<TextOut>(nullptr));
+    while (static_cast<int>(pieces.size()) < blocks)
+      pieces.push_back(std::make_unique<TextOut>(nullptr));
     parallel::forChunks(blocks, 1, [&](int block, int, int) {
       TextOut& piece = *pieces[static_cast<size_t>(block)];
       const int begin = first + block * kRowBlock, end = std::min(rows, begin + kRowBlock);
