@@ -16,7 +16,12 @@ constexpr int kWeakSweeps = 16;  // sweeps over the weakly anchored elements per
 constexpr int kWeakRound = 8;    // of them between two turns
 constexpr int kWeakGrain = 128;  // their colours are small: chunks that keep both threads busy
 
-using Blend = SweepBlend;
+// Element k's blend for the exact sweep (local_step.h): C_k^T (row-major, in Ct), its weight
+// and the over-relaxation factor of its update.
+struct Blend {
+  double weight = 1.0;
+  double omega = 1.0;
+};
 
 // The over-relaxation factor for an element whose neighbours make up the share `coupling` of
 // its blend: Young's optimal SOR factor 2 / (1 + sqrt(1 - rho^2)) with that share (the row sum
@@ -27,56 +32,29 @@ double overRelaxation(double coupling) {
   return rho > 0.0 ? 2.0 / (1.0 + std::sqrt(1.0 - rho * rho)) : 1.0;
 }
 
-// The SweepBase of the shape F.
 template <int D>
-void prepareSweeps(const Regularizer& reg, const Stacked& F, SweepBase& base) {
+Blend blend(const Regularizer& reg, int k, const Stacked& F, const Stacked& t, double* Ct) {
+  // C_k = weight F_k + sum_l w_kl (T_l - F_l), summed in a local array: Ct may alias F and t
+  // as far as the compiler knows, which would keep every partial sum in memory.
   constexpr int dd = D * D;
-  const int m = static_cast<int>(F.rows() / D);
-  base.G.resize(F.rows(), F.cols());
-  base.blends.resize(static_cast<size_t>(m));
-  parallel::forChunks(m, kGrain, [&](int, int begin, int end) {
-    for (int k = begin; k < end; ++k) {
-      const double* Fk = F.data() + static_cast<Eigen::Index>(k) * dd;
-      double* Gk = base.G.data() + static_cast<Eigen::Index>(k) * dd;
-      const double own = reg.elementWeight()(k);
-      double weight = own, sum[dd] = {};
-      for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
-        const double w = reg.neighbourWeight(g);
-        if (w == 0.0) continue;
-        weight += w;
-        const double* Fl = F.data() + static_cast<Eigen::Index>(reg.neighbour(g)) * dd;
-        for (int j = 0; j < dd; ++j) sum[j] += w * Fl[j];
-      }
-      Blend& b = base.blends[static_cast<size_t>(k)];
-      if (!(weight > 0.0)) {
-        b = Blend();
-        for (int j = 0; j < dd; ++j) Gk[j] = Fk[j];
-        continue;
-      }
-      b = {weight, overRelaxation(1.0 - own / weight), true};
-      for (int j = 0; j < dd; ++j) Gk[j] = weight * Fk[j] - sum[j];
-    }
-  });
-}
-
-// Element k's blend C_k = G_k + sum_l w_kl T_l into Ct, summed in a local array: Ct may alias t
-// as far as the compiler knows, which would keep every partial sum in memory.
-template <int D>
-Blend blend(const Regularizer& reg, int k, const SweepBase& base, const Stacked& t, double* Ct) {
-  constexpr int dd = D * D;
-  const double* Gk = base.G.data() + static_cast<Eigen::Index>(k) * dd;
-  const Blend& b = base.blends[static_cast<size_t>(k)];
-  double sum[dd];
-  for (int j = 0; j < dd; ++j) sum[j] = Gk[j];
-  if (b.coupled)
-    for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
-      const double w = reg.neighbourWeight(g);
-      if (w == 0.0) continue;
-      const double* Tl = t.data() + static_cast<Eigen::Index>(reg.neighbour(g)) * dd;
-      for (int j = 0; j < dd; ++j) sum[j] += w * Tl[j];
-    }
-  for (int j = 0; j < dd; ++j) Ct[j] = sum[j];
-  return b;
+  const double* Fk = F.data() + static_cast<Eigen::Index>(k) * dd;
+  const double own = reg.elementWeight()(k);
+  double weight = own, sum[dd] = {};
+  for (int g = reg.facetBegin(k); g < reg.facetEnd(k); ++g) {
+    const double w = reg.neighbourWeight(g);
+    if (w == 0.0) continue;
+    weight += w;
+    const Eigen::Index other = static_cast<Eigen::Index>(reg.neighbour(g)) * dd;
+    const double* Fl = F.data() + other;
+    const double* Tl = t.data() + other;
+    for (int j = 0; j < dd; ++j) sum[j] += w * (Tl[j] - Fl[j]);
+  }
+  if (!(weight > 0.0)) {  // no energy on this element: any target; keep the plain fit
+    for (int j = 0; j < dd; ++j) Ct[j] = Fk[j];
+    return {};
+  }
+  for (int j = 0; j < dd; ++j) Ct[j] = weight * Fk[j] + sum[j];
+  return {weight, overRelaxation(1.0 - own / weight)};
 }
 
 // The block objective of a target: weight ||T||^2 - 2 tr(T^T C), the terms of eq. 3 in T_k.
@@ -123,7 +101,7 @@ void keepDescent(const ResidualModel& model, int k, const double* Ct, const Blen
 // is the column-major C).
 template <int D>
 void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::vector<int>& ids,
-                 const SweepBase& base, Stacked& t, bool relax, int grain = kGrain) {
+                 const Stacked& F, Stacked& t, bool relax, int grain = kGrain) {
   constexpr int dd = D * D;
   auto target = [&t](int k) { return t.data() + static_cast<Eigen::Index>(k) * dd; };
   parallel::forChunks(static_cast<int>(ids.size()), grain, [&](int, int begin, int end) {
@@ -135,7 +113,7 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
         const int count = std::min(kFitBatch, end - first);
         const int* batch = ids.data() + first;
         for (int i = 0; i < count; ++i) {
-          b[i] = blend<3>(reg, batch[i], base, t, C[i].data());
+          b[i] = blend<3>(reg, batch[i], F, t, C[i].data());
           weight[i] = b[i].weight;
           if (relax)
             overRelax<3>(C[i].data(), b[i], target(batch[i]), previous[i], relaxed[i].data());
@@ -149,7 +127,7 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
       double Ct[dd], relaxed[dd], previous[dd];
       for (int i = begin; i < end; ++i) {
         const int k = ids[static_cast<size_t>(i)];
-        const Blend b = blend<D>(reg, k, base, t, Ct);
+        const Blend b = blend<D>(reg, k, F, t, Ct);
         if (!relax) {
           model.fitElement(Ct, b.weight, k, target(k));
           continue;
@@ -164,11 +142,10 @@ void sweepColour(const ResidualModel& model, const Regularizer& reg, const std::
 
 // `count` sweeps over every colour.
 template <int D>
-void sweepAll(const ResidualModel& model, const Regularizer& reg, const SweepBase& base,
-              Stacked& t, int count, bool relax) {
+void sweepAll(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t,
+              int count, bool relax) {
   for (int i = 0; i < count; ++i)
-    for (const std::vector<int>& ids : reg.colours())
-      sweepColour<D>(model, reg, ids, base, t, relax);
+    for (const std::vector<int>& ids : reg.colours()) sweepColour<D>(model, reg, ids, F, t, relax);
 }
 
 // Turns each weakly anchored component's targets together by the rotation Q that minimizes the
@@ -226,8 +203,7 @@ void turnWeakComponents(const Regularizer& reg, const Stacked& F, Stacked& t) {
 // 20% of the diagonal) took 79 / 87 / 71 iterations to the default stop instead of 98 / 130 /
 // 111 with plain Gauss-Seidel here, ending lower.
 template <int D>
-void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacked& F,
-                const SweepBase& base, Stacked& t) {
+void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t) {
   const int weak = reg.numWeak();
   if (weak == 0) return;
   const int m = static_cast<int>(F.rows() / D);
@@ -237,7 +213,7 @@ void settleWeak(const ResidualModel& model, const Regularizer& reg, const Stacke
     if (done >= total) return;
     for (int end = std::min(total, done + kWeakRound); done < end; ++done)
       for (const std::vector<int>& ids : reg.weakColours())
-        sweepColour<D>(model, reg, ids, base, t, true, kWeakGrain);
+        sweepColour<D>(model, reg, ids, F, t, true, kWeakGrain);
   }
 }
 
@@ -273,9 +249,8 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
       }
     }
   }
-  prepareSweeps<D>(reg, F, scratch.sweep);
-  settleWeak<D>(model, reg, F, scratch.sweep, t);
-  sweepAll<D>(model, reg, scratch.sweep, t, kLocalSweeps, true);
+  settleWeak<D>(model, reg, F, t);
+  sweepAll<D>(model, reg, F, t, kLocalSweeps, true);
   return model.energy(F, t, w);
 }
 
@@ -283,14 +258,10 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
 
 void sweepTargets(const ResidualModel& model, const Regularizer& reg, const Stacked& F, Stacked& t,
                   int count, bool overRelaxed) {
-  SweepBase base;
-  if (model.rows() == 3) {
-    prepareSweeps<3>(reg, F, base);
-    sweepAll<3>(model, reg, base, t, count, overRelaxed);
-  } else {
-    prepareSweeps<2>(reg, F, base);
-    sweepAll<2>(model, reg, base, t, count, overRelaxed);
-  }
+  if (model.rows() == 3)
+    sweepAll<3>(model, reg, F, t, count, overRelaxed);
+  else
+    sweepAll<2>(model, reg, F, t, count, overRelaxed);
 }
 
 double localStep(const ResidualModel& model, const Regularizer& reg, LocalStep step,
@@ -319,11 +290,9 @@ namespace {
 template <int D>
 double relaxFurther(const ResidualModel& model, const Regularizer& reg, const Stacked& F,
                     Stacked& t, double E, int steps) {
-  SweepBase base;
-  prepareSweeps<D>(reg, F, base);
   for (int i = 0; i < steps; ++i) {
-    settleWeak<D>(model, reg, F, base, t);
-    sweepAll<D>(model, reg, base, t, kLocalSweeps, true);
+    settleWeak<D>(model, reg, F, t);
+    sweepAll<D>(model, reg, F, t, kLocalSweeps, true);
     const double next = model.energy(F, t, reg.weights());
     const bool settled = E - next <= 1e-12 * E;
     E = next;

@@ -19,7 +19,6 @@
 #include <diffreg/deformation/residual_model.h>
 
 #include <string>
-#include <vector>
 
 namespace diffreg {
 
@@ -50,29 +49,11 @@ constexpr int kLocalSweeps = 4;
 /// of 1.15 / 1.3 / 1.5 for every element: 299 / 228 / 230 s.
 constexpr double kMaxCoupling = 0.95;
 
-/// Element k's blend in the exact sweeps: its weight, w_k + sum_l w_kl, the over-relaxation
-/// factor of its update, and whether any term holds it (`coupled`).
-struct SweepBlend {
-  double weight = 1.0;
-  double omega = 1.0;
-  bool coupled = false;
-};
-
-/// What every sweep at one shape shares (F fixed): each element's SweepBlend and the part of
-/// C_k that does not depend on the targets, G_k = weight F_k - sum_l w_kl F_l, so that a
-/// sweep's C_k = G_k + sum_l w_kl T_l reads only the neighbours' targets. Elements without
-/// energy keep G_k = F_k (any target does; they take the plain fit).
-struct SweepBase {
-  Stacked G;
-  std::vector<SweepBlend> blends;
-};
-
 /// Arrays the local step fills and reuses from call to call (kept by the caller, so that a
 /// million-element step does not fault in fresh pages each time).
 struct LocalStepScratch {
   Stacked F;           ///< L_k x_k at the positions of the last step
   Stacked fit;         ///< the per-element fit, when the step updates its targets in place
-  SweepBase sweep;     ///< the sweeps' blends at F
   bool fitWon = true;  ///< the per-element fit won the last time it was tried
   int fitSkipped = 0;  ///< steps since it was last tried (kFitRetry)
 };
