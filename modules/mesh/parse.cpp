@@ -152,6 +152,10 @@ class Scanner {
   int line_ = 0, nextLine_ = 1;
 };
 
+/// Corners reserved for a face before its indices are read: one allocation for the faces of
+/// common files instead of one per doubling; longer lists grow as their indices are read.
+constexpr long long kFaceReserve = 8;
+
 /// Throws unless `count` elements of at least `bytesEach` bytes fit into `remaining` bytes.
 void checkCount(const std::string& where, const std::string& what, long long count,
                 std::uint64_t bytesEach, std::uint64_t remaining) {
@@ -190,6 +194,7 @@ RawMesh parseObj(std::string_view text, const std::string& source) {
       raw.points.push_back(p);
     } else if (t[0] == "f") {
       RawFace face{s.lineNumber(), {}};
+      face.ids.reserve(t.size() - 1);  // the tokens are on the line already
       const long long n = static_cast<long long>(raw.points.size());
       for (size_t i = 1; i < t.size(); ++i) {
         const auto id = parseInt(t[i].substr(0, t[i].find('/')));
@@ -259,6 +264,7 @@ RawMesh parseBinaryOff(std::string_view data, const std::string& source) {
     const long long n = in.i32("the vertex count of " + what);
     checkCount(source + ": " + what, "vertices", n, 4, in.remaining());
     RawFace face;
+    face.ids.reserve(static_cast<size_t>(std::min<long long>(n, kFaceReserve)));
     for (long long j = 0; j < n; ++j) face.ids.push_back(in.i32("a vertex index of " + what));
     const long long colors = in.i32("the colour count of " + what);
     if (colors < 0 || colors > 4) {
@@ -322,6 +328,7 @@ RawMesh parseOff(std::string_view text, const std::string& source) {
                         ": bad vertex count or too few indices");
     }
     RawFace face{s.lineNumber(), {}};
+    face.ids.reserve(static_cast<size_t>(std::min<long long>(*size, kFaceReserve)));
     for (long long j = 0; j < *size; ++j) {
       const auto id = parseInt(t[1 + j]);
       if (!id) {
@@ -599,6 +606,7 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
       const bool mine = face && static_cast<int>(i) == ids;
       if (prop.countSize) {
         const long long n = in.listLength(prop);
+        if (mine) f.ids.reserve(static_cast<size_t>(std::min<long long>(n, kFaceReserve)));
         for (long long j = 0; j < n; ++j) {
           const double id = in.next(prop.size, prop.isFloat, prop.isSigned);
           if (mine) f.ids.push_back(plyIndex(id));
