@@ -4,8 +4,13 @@
 #include <diffreg/deformation/metrics.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/discretization/element_order.h>
 
 #include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <numeric>
+#include <random>
 
 using namespace diffreg;
 using namespace diffreg::testing;
@@ -167,5 +172,65 @@ TEST_CASE(
     // Both still smooth the spike at the handle.
     CHECK(uniform.dMaxNearHandle < none.dMaxNearHandle);
     CHECK(nonuniform.dMaxNearHandle < none.dMaxNearHandle);
+  }
+}
+
+TEST_CASE("a run's last targets, in the mesh's element order, start the relaxed energy at its "
+          "shape",
+          "[deformation][metrics]") {
+  // The bar of each kind, and a planar strip of more than kLocalityMinElements triangles whose
+  // elements are shuffled, which the session stores in its own locality order: lastTargets()
+  // maps them back.
+  std::vector<std::pair<std::string, PushedBar>> cases;
+  for (MeshKind kind : kAllKinds) cases.emplace_back(toString(kind), pushedBar(kind, 0.6));
+  {
+    PushedBar strip;
+    const Discretization plain(makeRectangle(4.0, 1.0, 72, 32));
+    REQUIRE(plain.numElements() > kLocalityMinElements);
+    std::vector<int> order(static_cast<size_t>(plain.numElements()));
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), std::mt19937(7));
+    strip.disc = std::make_unique<Discretization>(plain.withElementOrder(order));
+    REQUIRE_FALSE(localityElementOrder(*strip.disc).empty());
+    strip.handles = bothEnds(*strip.disc);
+    strip.targets = rows(strip.disc->rest(), strip.handles);
+    for (Eigen::Index i = 0; i < strip.targets.rows(); ++i)
+      if (strip.targets(i, 0) > 2.0) strip.targets(i, 1) += 1.0;
+    cases.emplace_back("shuffled strip", std::move(strip));
+  }
+  for (const auto& [name, b] : cases) {
+    INFO(name);
+    const Discretization& disc = *b.disc;
+    DeformationOptions o;
+    o.energy = Energy::Arap;
+    o.regularization = Regularization::Uniform;
+    o.beta = 0.5;
+    DeformationSession session(disc, o);
+    CHECK(session.lastTargets().size() == 0);  // no run yet
+    session.setHandles(b.handles);
+    session.setTargets(b.targets);
+    const DeformationResult r = session.solve(3000, kDefaultTolerance);
+    REQUIRE(r.converged);
+    const ElementTargets T = session.lastTargets();
+    const RegularizationWeights& w = session.regularizationWeights();
+    // The targets belong to the run's last shape: with them eq. 3 is the run's last energy.
+    const ResidualModel model(disc, Energy::Arap);
+    Stacked F;
+    model.gradients(r.positions, F);
+    REQUIRE(T.rows() == F.rows());
+    CHECK(model.energy(F, T, w) == Approx(r.energies.back()).epsilon(1e-12));
+    // The relaxation from them reaches the value from the per-element fit, and no higher than
+    // where the run stopped.
+    const DeformationMetrics fromFit = measureDeformation(disc, Energy::Arap, r.positions, w);
+    const DeformationMetrics fromRun =
+        measureDeformation(disc, Energy::Arap, r.positions, w, nullptr, nullptr, &T);
+    CHECK(fromRun.relaxed);
+    CHECK(fromRun.energy == Approx(fromFit.energy).epsilon(1e-9));
+    CHECK(fromRun.energy <= r.energies.back());
+    // New handle targets: nothing to continue, no targets.
+    Eigen::MatrixXd moved = b.targets;
+    moved(0, 1) += 0.05;
+    session.setTargets(moved);
+    CHECK(session.lastTargets().size() == 0);
   }
 }

@@ -36,6 +36,17 @@ const RegularizationWeights& DeformationCore::regularizationWeights() const {
   return ordered_ ? meshOrderWeights_ : system_.weights();
 }
 
+ElementTargets DeformationCore::lastTargets() const {
+  if (!resumable_) return {};
+  if (!ordered_) return t_;
+  const Eigen::Index rows = model_.rows();  // per element
+  ElementTargets out(t_.rows(), t_.cols());
+  for (size_t k = 0; k < elementOrder_.size(); ++k)
+    out.middleRows(static_cast<Eigen::Index>(elementOrder_[k]) * rows, rows) =
+        t_.middleRows(static_cast<Eigen::Index>(k) * rows, rows);
+  return out;
+}
+
 void DeformationCore::setHandles(const std::vector<int>& vertices) {
   if (vertices.empty()) throw InvalidParameter("deformation: the handle set is empty");
   std::vector<bool> seen(static_cast<size_t>(disc_.numVertices()), false);
@@ -439,6 +450,7 @@ const DeformationOptions& DeformationSession::options() const { return core_->op
 const RegularizationWeights& DeformationSession::regularizationWeights() const {
   return core_->regularizationWeights();
 }
+ElementTargets DeformationSession::lastTargets() const { return core_->lastTargets(); }
 const SparseMatrix& DeformationSession::systemMatrix() const { return core_->systemMatrix(); }
 SolverStats DeformationSession::stats() const { return core_->stats(); }
 

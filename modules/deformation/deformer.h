@@ -74,6 +74,11 @@ class DeformationSession {
   DeformationResult resume(int maxIterations, double relTolerance);
 
   const DeformationOptions& options() const;
+  /// The targets of the shape the last iterative run stopped at (its last local step's), in the
+  /// mesh's element order: where relaxing eq. 3 at that shape can start (measureDeformation).
+  /// Empty when there is nothing to continue (as resume(): no run yet, a linear energy, or
+  /// handles, targets or regularization changed since).
+  ElementTargets lastTargets() const;
   /// beta_k and beta_kl of the current regularization.
   const RegularizationWeights& regularizationWeights() const;
   /// The system matrix A of the energy (n x n separable, d n x d n coupled), for tests.

@@ -303,10 +303,11 @@ double relaxFurther(const ResidualModel& model, const Regularizer& reg, const St
 
 }  // namespace
 
-double relaxedEnergy(const ResidualModel& model, const Regularizer& reg, const Eigen::MatrixXd& X) {
+double relaxedEnergy(const ResidualModel& model, const Regularizer& reg, const Eigen::MatrixXd& X,
+                     const Stacked* start) {
   Stacked t;
   LocalStepScratch scratch;
-  const double E = localStep(model, reg, LocalStep::Exact, X, nullptr, t, scratch);
+  const double E = localStep(model, reg, LocalStep::Exact, X, start, t, scratch);
   if (!reg.coupling() || !model.iterative()) return E;
   // scratch.F is F at X, from that first step.
   return model.rows() == 3 ? relaxFurther<3>(model, reg, scratch.F, t, E, 100)

@@ -115,7 +115,8 @@ DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd& positions,
                                       const RegularizationWeights& weights,
                                       const Eigen::MatrixXd* reference,
-                                      const double* runEnergy) {
+                                      const double* runEnergy,
+                                      const ElementTargets* startTargets) {
   checkPositions(disc, positions);
   const ResidualModel model(disc, energy);
   const Stacked e = model.residuals(positions);
@@ -134,7 +135,7 @@ DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
   } else {
     Regularizer regularizer(disc);
     regularizer.setWeights(weights);
-    m.energy = relaxedEnergy(model, regularizer, positions);
+    m.energy = relaxedEnergy(model, regularizer, positions, startTargets);
   }
   if (reference) m.dist = rmsDistance(positions, *reference);
   return m;

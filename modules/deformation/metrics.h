@@ -57,10 +57,14 @@ struct DeformationMetrics {
 /// is the energy an unconverged run reached at these positions with its targets: reported as
 /// it is (relaxed = false) instead of relaxing the targets, which costs as much as several
 /// iterations (about 1 s on a 43K surface), so that an interactive update stays within its time.
+/// `startTargets`, when given, are targets at these positions (DeformationSession::lastTargets
+/// of the run that ended there): the relaxation starts from them where they are lower than the
+/// per-element fit, and then takes a step or two instead of many.
 DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd& positions,
                                       const RegularizationWeights& weights,
                                       const Eigen::MatrixXd* reference = nullptr,
-                                      const double* runEnergy = nullptr);
+                                      const double* runEnergy = nullptr,
+                                      const ElementTargets* startTargets = nullptr);
 
 }  // namespace diffreg

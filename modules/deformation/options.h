@@ -148,6 +148,11 @@ struct DeformationOptions {
   std::function<void(int iteration, double energy, double criterion)> progress;
 };
 
+/// Per-element targets T_k as the deformation holds them: one row-major block per element,
+/// stacked in element order (the energy's rows x columns; 3 x 3 rotations for ARAP on surfaces
+/// and tets, 2 x 2 on planar meshes).
+using ElementTargets = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 struct DeformationResult {
   Eigen::MatrixXd positions;  ///< n x d (planar: 2 columns)
   /// Total regularized energy (ResidualModel::energy) after each iteration, with the targets of

@@ -14,7 +14,7 @@ namespace diffreg {
 /// residuals e. Row-major, so each element's block is contiguous (separable layout: the d x d
 /// block F_k^T in d^2 consecutive values; coupled: one column, the same either way); the local
 /// step's sweeps read an element and its neighbours a few cache lines each, in place.
-using Stacked = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using Stacked = ElementTargets;
 
 /// Elements per ResidualModel::fitElements call.
 constexpr int kFitBatch = 16;

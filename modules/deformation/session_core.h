@@ -42,6 +42,7 @@ class DeformationCore {
   const DeformationOptions& options() const { return options_; }
   /// In the order of the caller's discretization's elements.
   const RegularizationWeights& regularizationWeights() const;
+  ElementTargets lastTargets() const;
   const SparseMatrix& systemMatrix() const { return system_.matrix(); }
   SolverStats stats() const;
 

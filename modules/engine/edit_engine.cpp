@@ -580,7 +580,12 @@ void EditEngine::computeMaps(const EditState& want, const Eigen::MatrixXd& posit
   // than the update's iterations (EditParams::seconds).
   const bool unconverged = S.deform.session && !S.deform.converged && !lastRun_.energies.empty();
   const double* runEnergy = unconverged ? &lastRun_.energies.back() : nullptr;
-  if (p.metrics) metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference, runEnergy);
+  // A converged deformation's targets at X are settled already: the relaxation starts there.
+  ElementTargets runTargets;
+  if (p.metrics && !runEnergy && S.deform.session) runTargets = S.deform.session->lastTargets();
+  if (p.metrics)
+    metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference, runEnergy,
+                                 runTargets.size() > 0 ? &runTargets : nullptr);
   ElementMaps maps = elementMaps(*disc_, p.energy, X);
   metrics_ = metrics;
   distortion_ = std::move(maps.distortion);
