@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <numeric>
 #include <random>
+#include <stdexcept>
 
 using namespace diffreg;
 using namespace diffreg::testing;
@@ -227,10 +228,36 @@ TEST_CASE("a run's last targets, in the mesh's element order, start the relaxed 
     CHECK(fromRun.relaxed);
     CHECK(fromRun.energy == Approx(fromFit.energy).epsilon(1e-9));
     CHECK(fromRun.energy <= r.energies.back());
+    const ElementTargets cut = T.topRows(T.rows() - disc.dim());
+    CHECK_THROWS_AS(measureDeformation(disc, Energy::Arap, r.positions, w, nullptr, nullptr, &cut),
+                    InvalidParameter);
     // New handle targets: nothing to continue, no targets.
     Eigen::MatrixXd moved = b.targets;
     moved(0, 1) += 0.05;
     session.setTargets(moved);
     CHECK(session.lastTargets().size() == 0);
   }
+}
+
+TEST_CASE("a run that throws leaves no last targets and nothing to continue",
+          "[deformation][metrics]") {
+  const PushedBar b = pushedBar(MeshKind::Planar, 0.6);
+  bool stop = false;
+  DeformationOptions o;
+  o.energy = Energy::Arap;
+  o.regularization = Regularization::Uniform;
+  o.beta = 0.5;
+  o.progress = [&stop](int iteration, double, double) {
+    if (stop && iteration >= 3) throw std::runtime_error("stopped by the caller");
+  };
+  DeformationSession session(*b.disc, o);
+  session.setHandles(b.handles);
+  session.setTargets(b.targets);
+  REQUIRE(session.solve(3000, kDefaultTolerance).converged);
+  REQUIRE(session.lastTargets().size() > 0);
+  stop = true;
+  CHECK_THROWS_WITH(session.solve(3000, kDefaultTolerance), "stopped by the caller");
+  CHECK(session.lastTargets().size() == 0);
+  stop = false;
+  CHECK(session.resume(3000, kDefaultTolerance).initialGuess != "continued");
 }

@@ -380,7 +380,11 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
   } else {
     result.converged = false;
     double E = 0.0;
-    if (resume && resumable_) {
+    const bool continuing = resume && resumable_;
+    // t_ leaves lastX_ from here until the run ends: a run that throws (a non-finite energy, a
+    // solver error, the progress callback) leaves nothing to continue and no last targets.
+    resumable_ = false;
+    if (continuing) {
       X = lastX_;
       E = lastE_;
       result.initialGuess = "continued";

@@ -238,13 +238,17 @@ double sweeps(const ResidualModel& model, const Regularizer& reg, const Stacked&
       if (previous != &t) t = *previous;
     } else {
       scratch.fitSkipped = 0;
+      // The fit wins when it is lower, or finite where the previous targets are not.
+      const auto wins = [&](double fitted) {
+        return fitted < kept || (!std::isfinite(kept) && std::isfinite(fitted));
+      };
       if (previous == &t) {  // in place: the fit goes to scratch space first
         model.fitTargets(F, fit);
-        scratch.fitWon = model.energy(F, fit, w) < kept;
+        scratch.fitWon = wins(model.energy(F, fit, w));
         if (scratch.fitWon) t.swap(fit);
       } else {
         model.fitTargets(F, t);
-        scratch.fitWon = model.energy(F, t, w) < kept;
+        scratch.fitWon = wins(model.energy(F, t, w));
         if (!scratch.fitWon) t = *previous;
       }
     }

@@ -85,8 +85,8 @@ void sweepTargets(const ResidualModel& model, const Regularizer& regularizer, co
                   Stacked& t, int count, bool overRelaxed = true);
 
 /// Eq. 3 at positions X as a function of the shape alone: its minimum over the targets,
-/// approached by exact local steps from the per-element fit, or from `start` where that is
-/// lower (the targets a run stopped with at X: already settled, so a step or two suffice),
+/// approached by exact local steps from the per-element fit, or from `start` when its total
+/// energy is lower (the targets a run stopped with at X: already settled, so a step or two do),
 /// until one gains less than 1e-12 of the energy (at most 100). Without coupling the
 /// per-element fit is the minimum.
 double relaxedEnergy(const ResidualModel& model, const Regularizer& regularizer,

@@ -133,6 +133,13 @@ DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
     m.energy = *runEnergy;
     m.relaxed = false;
   } else {
+    const Eigen::Index rows = static_cast<Eigen::Index>(disc.numElements()) * disc.dim();
+    if (startTargets && (startTargets->rows() != rows || startTargets->cols() != disc.dim()))
+      throw InvalidParameter("metrics: start targets of shape " +
+                             std::to_string(startTargets->rows()) + " x " +
+                             std::to_string(startTargets->cols()) + " for " +
+                             std::to_string(disc.numElements()) + " elements (expected " +
+                             std::to_string(rows) + " x " + std::to_string(disc.dim()) + ")");
     Regularizer regularizer(disc);
     regularizer.setWeights(weights);
     m.energy = relaxedEnergy(model, regularizer, positions, startTargets);

@@ -58,8 +58,9 @@ struct DeformationMetrics {
 /// it is (relaxed = false) instead of relaxing the targets, which costs as much as several
 /// iterations (about 1 s on a 43K surface), so that an interactive update stays within its time.
 /// `startTargets`, when given, are targets at these positions (DeformationSession::lastTargets
-/// of the run that ended there): the relaxation starts from them where they are lower than the
-/// per-element fit, and then takes a step or two instead of many.
+/// of the run that ended there): the relaxation starts from them when their total energy is
+/// lower than that of the per-element fit, and then takes a step or two instead of many;
+/// ignored with `runEnergy`. \throw InvalidParameter when `startTargets` is not (m d) x d.
 DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd& positions,
                                       const RegularizationWeights& weights,

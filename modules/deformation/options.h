@@ -148,9 +148,11 @@ struct DeformationOptions {
   std::function<void(int iteration, double energy, double criterion)> progress;
 };
 
-/// Per-element targets T_k as the deformation holds them: one row-major block per element,
-/// stacked in element order (the energy's rows x columns; 3 x 3 rotations for ARAP on surfaces
-/// and tets, 2 x 2 on planar meshes).
+/// Per-element targets as the iterative deformations (ARAP; ASAP on surfaces and tets) hold
+/// them: (m d) x d, d = Discretization::dim(), the d x d block T_k^T of each element in its d
+/// rows, in element order (row-major, so each block is contiguous). T_k is the rotation R_k
+/// (tets, planar), R_k P_k on surfaces (P_k the projection onto the rest tangent plane), and a
+/// scaled rotation for ASAP.
 using ElementTargets = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 struct DeformationResult {

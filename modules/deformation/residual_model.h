@@ -4,6 +4,7 @@
 #pragma once
 
 #include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/options.h>
 #include <diffreg/deformation/regularizer.h>
 
 #include <Eigen/Core>
