@@ -10,7 +10,7 @@
 ///     find_package(diffreg 0.1 CONFIG REQUIRED)
 ///     target_link_libraries(my_program PRIVATE diffreg::diffreg)
 ///
-/// and include `<diffreg/diffreg.h>`. Three levels of use:
+/// and include `<diffreg/diffreg.h>`. Four levels of use:
 ///
 /// - **One-shot functions on your own OpenMesh mesh** (diffreg/openmesh.h):
 ///   diffreg::computeDiffusedWeights, diffreg::deform, diffreg::measure and
