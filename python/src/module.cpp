@@ -74,7 +74,7 @@ py::tuple deformArrays(const py::object& V, const py::object& E, const py::objec
 
 py::dict measureArrays(const py::object& V, const py::object& E, const py::object& X,
                        const py::object& weights, const py::object& reference,
-                       const py::kwargs& kwargs) {
+                       const py::object& startTargets, const py::kwargs& kwargs) {
   // energy, regularization and beta with the deform filter's names, defaults and checks.
   std::vector<ParamSpec> specs;
   for (const ParamSpec& spec : Registry::builtin().get("deform").params())
@@ -99,13 +99,19 @@ py::dict measureArrays(const py::object& V, const py::object& E, const py::objec
   Eigen::MatrixXd ref;
   if (!reference.is_none())
     ref = toMatrix(reference, "reference", n, positions.cols()).leftCols(disc.dim());
+  ElementTargets start;
+  if (!startTargets.is_none()) {
+    const Eigen::Index d = disc.dim();
+    start = toMatrix(startTargets, "start_targets", disc.numElements() * d, d);
+  }
   DeformationMetrics metrics;
   {
     py::gil_scoped_release release;
     const RegularizationWeights rw =
         makeRegularizationWeights(disc, mode, params.getFloat("beta"), w);
     metrics = measureDeformation(disc, energy, positions.leftCols(disc.dim()), rw,
-                                 reference.is_none() ? nullptr : &ref);
+                                 reference.is_none() ? nullptr : &ref, nullptr,
+                                 startTargets.is_none() ? nullptr : &start);
   }
   py::dict out;
   out["D_max"] = metrics.dMax;
@@ -318,7 +324,8 @@ void bindDeformation(py::module_& m) {
             .c_str());
   m.def("measure", &measureArrays, py::arg("V"), py::arg("E"), py::arg("X"),
         py::arg("weights") = py::none(), py::arg("reference") = py::none(),
-        ("measure(V, E, X, weights=None, reference=None" +
+        py::arg("start_targets") = py::none(),
+        ("measure(V, E, X, weights=None, reference=None, start_targets=None" +
          paramSignature("deform", {"local_step", "acceleration", "iterations", "tolerance"}) +
          ") -> dict\n\n"
          "The paper's Table-1 metrics of the deformation X of the rest shape (V, E): D_max, "
@@ -326,7 +333,9 @@ void bindDeformation(py::module_& m) {
          "inverted (elements), energy (the regularized energy with energy, regularization, "
          "beta, weights) and dist (RMS distance to `reference`, e.g. the same edit with "
          "regularization='none'; None without one), and distortion, the per-element D_k "
-         "(the tool's diffreg:distortion).\n\n" +
+         "(the tool's diffreg:distortion). start_targets: DeformationSession.last_targets() "
+         "of the run that ended at X, where relaxing the energy may start (the same value, "
+         "sooner).\n\n" +
          paramDoc("deform", {"local_step", "acceleration", "iterations", "tolerance"}))
             .c_str());
 }

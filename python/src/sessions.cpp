@@ -145,6 +145,11 @@ class PyDeformationSession {
   }
   void setBeta(double beta) { session_->setBeta(beta); }
   void setTimeBudget(double seconds) { session_->setTimeBudget(seconds); }
+  py::object lastTargets() const {
+    const ElementTargets t = session_->lastTargets();
+    if (t.size() == 0) return py::none();
+    return fromMatrix(Eigen::MatrixXd(t));
+  }
   void setWeights(const py::object& weights) {
     session_->setWeights(toVector(weights, "weights", shape_->mesh.numVertices()));
   }
@@ -290,6 +295,13 @@ void bindDeformationSession(py::module_& m) {
             "where it stopped (as one long run); solves afresh when nothing can be continued. " +
             limitsDoc)
                .c_str())
+      .def("last_targets", &PyDeformationSession::lastTargets,
+           "last_targets() -> array or None\n\nThe targets of the shape the last run stopped "
+           "at: (m d, d), the d x d block T_k^T of each element in its d rows, d the mesh's "
+           "dimension (2 planar, 3 otherwise). measure(..., start_targets=...) relaxes the "
+           "energy of that shape from them (a step or two instead of many). None when nothing "
+           "can be continued (as resume(): no run yet, a linear energy, or new handles, targets "
+           "or regularization since).")
       .def_property_readonly("stats", &PyDeformationSession::stats, kStatsDoc);
 }
 

@@ -298,6 +298,14 @@ def test_deformation_session_reuses_its_factorization():
     assert s2["symbolic"] == s0["symbolic"] and s2["numeric"] > s1["numeric"]
     Xr, info = session.resume()
     assert info["initial_guess"] == "continued" and info["converged"]
+    # The run's last targets start the energy metric at its shape: the same value.
+    T = session.last_targets()
+    assert T is not None and T.shape[1] in (2, 3) and T.shape[0] == T.shape[1] * len(E)
+    fit = diffreg.measure(V, E, Xr, regularization="uniform", beta=0.3)  # set_beta(0.3) above
+    run = diffreg.measure(V, E, Xr, regularization="uniform", beta=0.3, start_targets=T)
+    assert run["energy"] == pytest.approx(fit["energy"], rel=1e-9)
+    with pytest.raises(ValueError):
+        diffreg.measure(V, E, Xr, start_targets=T[:-T.shape[1]])
     # A time budget spent at once: one iteration per call, the same end as one run.
     session.set_beta(0.4)
     once, info_once = session.solve()
@@ -313,6 +321,7 @@ def test_deformation_session_reuses_its_factorization():
     with pytest.raises(ValueError):
         session.set_time_budget(-1)
     session.set_regularization("none")
+    assert session.last_targets() is None  # nothing to continue
     Xf, info = session.solve_from(Xr, iterations=100)
     assert info["initial_guess"] == "given"
     assert session.stats["symbolic"] == s0["symbolic"]
