@@ -2,6 +2,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
+#include <diffreg/mesh/halfedges.h>
 #include <diffreg/mesh/polygon.h>
 
 #include <OpenMesh/Core/IO/importer/ImporterT.hh>
@@ -945,6 +946,14 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
   const long long n = static_cast<long long>(raw.points.size());
   if (n > 2000000000LL) throw InvalidMesh(source + ": more than 2e9 vertices");
   for (size_t k = 0; k < raw.faces.size(); ++k) checkFace(source, raw.faces[k], k, n, raw.base);
+  if (std::all_of(raw.faces.begin(), raw.faces.end(),
+                  [](const RawFace& f) { return f.ids.size() == 3; })) {
+    // Most files: triangles making an oriented manifold, built in one pass.
+    std::vector<std::array<int, 3>> triangles(raw.faces.size());
+    for (size_t k = 0; k < raw.faces.size(); ++k)
+      for (size_t j = 0; j < 3; ++j) triangles[k][j] = static_cast<int>(raw.faces[k].ids[j]);
+    if (auto built = buildOrientedManifold(raw.points, triangles)) return built;
+  }
   auto mesh = std::make_unique<TriMesh>();  // on the heap: a Mesh takes it over without a copy
   TriMesh& tri = *mesh;
   // Room for what the file holds (polygons and split faces may add a little): no doubling of

@@ -50,7 +50,8 @@ TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::s
 /// triangulated in their plane (non-planar or self-intersecting ones refused), faces that would
 /// make the mesh non-manifold split off with their own vertex copies (after the file's; more
 /// than 1000 of them and more than 10% of the faces is an error). Warns about polygons and
-/// split faces.
+/// split faces. Triangles that make an oriented manifold (most files) are built in one pass
+/// (halfedges.h), to the same mesh.
 /// \throw InvalidMesh naming `source`, the line and the face.
 std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& source);
 

@@ -1,6 +1,7 @@
 #include <diffreg/mesh/shapes.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/mesh/halfedges.h>
 
 #include <algorithm>
 #include <array>
@@ -54,7 +55,8 @@ int cellsAlong(const char* function, const char* name, double length, int cellsP
 /// Builds the TriMesh from points and triangles (indices into points).
 Mesh buildTriMesh(const char* function, const std::vector<Eigen::Vector3d>& points,
                   const std::vector<Triangle>& triangles) {
-  TriMesh tri;
+  if (auto built = buildOrientedManifold(points, triangles)) return Mesh(std::move(built));
+  TriMesh tri;  // adding them one by one names the face that does not fit
   std::vector<TriMesh::VertexHandle> handles;
   handles.reserve(points.size());
   for (const Eigen::Vector3d& p : points)
