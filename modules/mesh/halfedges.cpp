@@ -15,32 +15,42 @@ std::unique_ptr<TriMesh> buildOrientedManifold(const std::vector<Eigen::Vector3d
   // triangle f to corner j + 1), and up to 3m edges: 2^31 half-edges would overflow OpenMesh's
   // int handles.
   if (m == 0 || 3 * m > (Index(1) << 30)) return nullptr;
-  const auto from = [&](Index w) { return triangles[size_t(w / 3)][size_t(w % 3)]; };
-  const auto to = [&](Index w) { return triangles[size_t(w / 3)][size_t((w % 3 + 1) % 3)]; };
+  // The wedges' ends, flat (no division by 3 in the loops below).
+  const size_t wedges = static_cast<size_t>(3 * m);
+  std::vector<int> tail(wedges), head(wedges);
+  for (size_t f = 0, w = 0; f < triangles.size(); ++f, w += 3) {
+    const auto& t = triangles[f];
+    tail[w] = head[w + 2] = t[0];
+    tail[w + 1] = head[w] = t[1];
+    tail[w + 2] = head[w + 1] = t[2];
+  }
 
-  // The wedges leaving each vertex, by vertex (counting sort).
+  // The wedges leaving each vertex, by vertex (counting sort), with their end vertices beside.
   std::vector<int> first(size_t(n) + 1, 0);
-  for (const auto& t : triangles)
-    for (int v : t) ++first[size_t(v) + 1];
+  for (int v : tail) ++first[size_t(v) + 1];
   for (Index v = 0; v < n; ++v) first[size_t(v) + 1] += first[size_t(v)];
-  std::vector<int> leaving(size_t(3 * m));
+  std::vector<int> leaving(wedges), leavingTo(wedges);
   {
     std::vector<int> fill(first.begin(), first.end() - 1);
-    for (Index w = 0; w < 3 * m; ++w) leaving[size_t(fill[size_t(from(w))]++)] = int(w);
+    for (size_t w = 0; w < wedges; ++w) {
+      const int k = fill[size_t(tail[w])]++;
+      leaving[size_t(k)] = int(w);
+      leavingTo[size_t(k)] = head[w];
+    }
   }
   // No directed edge twice: at most two triangles on an edge, and those two in opposite
   // directions.
   for (Index v = 0; v < n; ++v)
     for (int a = first[size_t(v)]; a < first[size_t(v) + 1]; ++a)
       for (int b = a + 1; b < first[size_t(v) + 1]; ++b)
-        if (to(leaving[size_t(a)]) == to(leaving[size_t(b)])) return nullptr;
+        if (leavingTo[size_t(a)] == leavingTo[size_t(b)]) return nullptr;
   // The wedge running the other way along each wedge's edge, if any.
-  std::vector<int> twin(size_t(3 * m), -1);
-  for (Index w = 0; w < 3 * m; ++w) {
-    const int a = from(w), b = to(w);
+  std::vector<int> twin(wedges, -1);
+  for (size_t w = 0; w < wedges; ++w) {
+    const int a = tail[w], b = head[w];
     for (int k = first[size_t(b)]; k < first[size_t(b) + 1]; ++k)
-      if (to(leaving[size_t(k)]) == a) {
-        twin[size_t(w)] = leaving[size_t(k)];
+      if (leavingTo[size_t(k)] == a) {
+        twin[w] = leaving[size_t(k)];
         break;
       }
   }
@@ -59,12 +69,14 @@ std::unique_ptr<TriMesh> buildOrientedManifold(const std::vector<Eigen::Vector3d
   const size_t numHalfedges = static_cast<size_t>(halfedges);
   std::vector<int> target(numHalfedges), face(numHalfedges, -1), next(numHalfedges, -1),
       creator(static_cast<size_t>(edges), -1);
-  for (Index w = 0; w < 3 * m; ++w) {
-    const int h = halfedge[size_t(w)];
-    target[size_t(h)] = to(w);
-    face[size_t(h)] = int(w / 3);
-    next[size_t(h)] = halfedge[size_t(w - w % 3 + (w % 3 + 1) % 3)];
-    if (!(h & 1)) creator[size_t(h / 2)] = int(w);
+  for (size_t f = 0, w = 0; f < triangles.size(); ++f) {
+    for (size_t j = 0; j < 3; ++j, ++w) {
+      const int h = halfedge[w];
+      target[size_t(h)] = head[w];
+      face[size_t(h)] = int(f);
+      next[size_t(h)] = halfedge[j == 2 ? w - 2 : w + 1];
+      if (!(h & 1)) creator[size_t(h / 2)] = int(w);
+    }
   }
   // Boundary half-edges: one leaving any vertex at most (a vertex with two gaps in its fan is
   // not a manifold vertex); each continues with the one leaving its end.
@@ -73,8 +85,8 @@ std::unique_ptr<TriMesh> buildOrientedManifold(const std::vector<Eigen::Vector3d
     const Index h = 2 * e + 1;
     if (face[size_t(h)] >= 0) continue;
     const int w = creator[size_t(e)];
-    target[size_t(h)] = from(w);
-    int& out = boundaryLeaving[size_t(to(w))];
+    target[size_t(h)] = tail[size_t(w)];
+    int& out = boundaryLeaving[size_t(head[size_t(w)])];
     if (out >= 0) return nullptr;
     out = int(h);
   }
