@@ -3,6 +3,7 @@
 #include <diffreg/core/colormap.h>
 #include <diffreg/core/error.h>
 #include <diffreg/mesh/io.h>
+#include <diffreg/mesh/parse.h>
 #include <diffreg/mesh/shapes.h>
 
 #include <Eigen/Geometry>
@@ -256,6 +257,51 @@ TEST_CASE("OBJ/OFF/PLY errors name the file and the element", "[mesh][io]") {
         tmp.file("sliver.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.5 1e-16 0\nf 1 2 3\nf 1 4 2\n");
     CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(q); }), Catch::Contains("face 1"));
   }
+}
+
+TEST_CASE("OBJ: the one-pass reading gives what the token-wise reading gives", "[mesh][io]") {
+  // Points, faces and their lines equal, or the same error (one pass leaves every error line to
+  // the token-wise reading).
+  const auto same = [](const std::string& text) {
+    INFO(text);
+    std::string fast, general;
+    RawMesh a, b;
+    try {
+      a = parseObj(text, "t.obj");
+    } catch (const InvalidMesh& e) {
+      fast = e.what();
+    }
+    try {
+      b = detail::parseObjByTokens(text, "t.obj");
+    } catch (const InvalidMesh& e) {
+      general = e.what();
+    }
+    CHECK(fast == general);
+    REQUIRE(a.points.size() == b.points.size());
+    for (size_t i = 0; i < a.points.size(); ++i) CHECK(a.points[i] == b.points[i]);
+    REQUIRE(a.faces.size() == b.faces.size());
+    for (size_t k = 0; k < a.faces.size(); ++k) {
+      CHECK(a.faces[k].line == b.faces[k].line);
+      CHECK(a.faces[k].ids == b.faces[k].ids);
+    }
+    CHECK(a.base == b.base);
+  };
+  const std::string quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+  for (const std::string& text : std::vector<std::string>{
+           quad + "f 1 2 3\nf 1 3 4\n",
+           "# header\n\n  v\t+1.5 -2e-3 .5 # point\r\nv 1 2 3 1 extra\nvn 0 0 1\nvt 0 0\n"
+           "v 0 1 0\r\ng part\no obj\nusemtl m\ns 1\nf 1/1 2/2/2 3//3\r\nf -1 -2 -3#c\n"
+           "f +1 2 03\nf 3 2 1 1\nf   \n\t f 1 2 3",
+           quad + "f 1 2 3\nf 1 3 9\n",             // out of range: read, refused later
+           quad + "f 1 2 3\nf 1 3 -5\n",            // before the first vertex
+           quad + "f 1 0 3\n",                       // no vertex 0
+           quad + "f 1 2 x\n", quad + "f 1 2 /3\n", quad + "f 1 2 -+3\n",
+           quad + "f 1 2 99999999999999999999\n",  // beyond long long
+           quad + "f 1 2 1234567890123456789\n",   // 19 digits
+           quad + "f\n", quad + "v\n", "v 1 2\n", "v 1 2 nan\n", "v 1 2 1e400\n",
+           "v 1 2 inf\n", "v 1 2 3x\n", quad + "f 1 2 3", "vv 1 2 3\nff 1 2 3\n" + quad,
+           std::string("v 0 0 0\nv 1 0 0\0\nv 0 1 0\nf 1 2 3\n", 33), ""})
+    same(text);
 }
 
 TEST_CASE("ASCII PLY values are whitespace-separated: elements may span or share lines",

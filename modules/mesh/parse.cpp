@@ -180,7 +180,90 @@ long long count(const std::string& where, std::string_view token, const std::str
 // ---------------------------------------------------------------------------------------
 // OBJ
 
+namespace {
+
+/// parseObj's common case in one pass over the bytes, without a list of tokens per line: the
+/// same points, faces and line numbers as the general reading below, or nothing at the first
+/// line it would report (or could not read as it does), which is then read again that way.
+std::optional<RawMesh> parseObjFast(std::string_view text) {
+  RawMesh raw;
+  raw.base = 1;
+  const char* p = text.data();
+  const char* const end = p + text.size();
+  int line = 0;
+  const auto skipSpace = [](const char* q, const char* stop) {
+    while (q < stop && isSpace(*q)) ++q;
+    return q;
+  };
+  const auto tokenEnd = [](const char* q, const char* stop) {
+    while (q < stop && !isSpace(*q)) ++q;
+    return q;
+  };
+  while (p < end) {
+    ++line;
+    const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
+    if (!eol) eol = end;
+    const char* hash = static_cast<const char*>(std::memchr(p, '#', size_t(eol - p)));
+    const char* const stop = hash ? hash : eol;
+    const char* q = skipSpace(p, stop);
+    p = eol + 1;
+    if (q + 1 == stop && (*q == 'v' || *q == 'f')) return std::nullopt;  // a bare "v" or "f"
+    if (q + 1 >= stop || !isSpace(q[1])) continue;  // not "v" or "f" with something after it
+    if (*q == 'v') {
+      Eigen::Vector3d point;
+      ++q;
+      for (int c = 0; c < 3; ++c) {
+        q = skipSpace(q, stop);
+        const char* e = tokenEnd(q, stop);
+        if (q == e || parseDouble(std::string_view(q, size_t(e - q)), point[c]) != Parsed::Ok ||
+            !std::isfinite(point[c]))
+          return std::nullopt;
+        q = e;
+      }
+      raw.points.push_back(point);
+    } else if (*q == 'f') {
+      RawFace face{line, {}};
+      face.ids.reserve(4);
+      const long long n = static_cast<long long>(raw.points.size());
+      for (q = skipSpace(q + 1, stop); q < stop; q = skipSpace(q, stop)) {
+        const char* e = tokenEnd(q, stop);
+        const char* slash = static_cast<const char*>(std::memchr(q, '/', size_t(e - q)));
+        const char* const digitsEnd = slash ? slash : e;
+        // Plain decimal digits (at most 18: no overflow) here; anything else by parseInt.
+        const bool negative = *q == '-';
+        long long id = 0;
+        const char* d = q + (negative ? 1 : 0);
+        if (d == digitsEnd || digitsEnd - d > 18) return std::nullopt;
+        for (; d < digitsEnd; ++d) {
+          const unsigned digit = static_cast<unsigned>(*d - '0');
+          if (digit > 9) break;
+          id = 10 * id + digit;
+        }
+        if (d != digitsEnd) {
+          const auto parsed = parseInt(std::string_view(q, size_t(digitsEnd - q)));
+          if (!parsed) return std::nullopt;
+          id = *parsed;
+        } else if (negative) {
+          id = -id;
+        }
+        if (id == 0 || id < -n) return std::nullopt;
+        face.ids.push_back(id > 0 ? id - 1 : n + id);
+        q = e;
+      }
+      raw.faces.push_back(std::move(face));
+    }
+  }
+  return raw;
+}
+
+}  // namespace
+
 RawMesh parseObj(std::string_view text, const std::string& source) {
+  if (auto raw = parseObjFast(text)) return std::move(*raw);
+  return detail::parseObjByTokens(text, source);
+}
+
+RawMesh detail::parseObjByTokens(std::string_view text, const std::string& source) {
   Scanner s(text, source);
   RawMesh raw;
   raw.base = 1;

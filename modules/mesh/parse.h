@@ -40,6 +40,12 @@ struct RawMesh {
 };
 
 RawMesh parseObj(std::string_view text, const std::string& source);
+namespace detail {
+/// parseObj's general reading, line by line through a list of tokens. parseObj reads most
+/// files in one pass and falls back to this for the first line that pass cannot take (every
+/// error, for its message); tests compare the two.
+RawMesh parseObjByTokens(std::string_view text, const std::string& source);
+}  // namespace detail
 RawMesh parseOff(std::string_view text, const std::string& source);
 RawMesh parsePly(std::string_view text, const std::string& source);
 TetMesh parseMedit(std::string_view text, const std::string& source);
