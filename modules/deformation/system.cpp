@@ -76,6 +76,40 @@ void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* 
     scatterShares<R, C, U, false>(model, t, F, reg, r, c, u, ids, first, count, b);
 }
 
+// Adds w_k L_k^T L_k of every element with w_k != 0 to A's values (A's pattern holds every
+// element's unknowns). R rows and U local unknowns per element: known at compile time (> 0) for
+// the common layouts, else `r`, `u` at run time. Each entry sums its rows in order and takes
+// the elements in order, whatever R and U.
+template <int R, int U>
+void addElementBlocks(const ResidualModel& model, const Eigen::VectorXd& elementWeight, int r_,
+                      int u_, SparseMatrix& A) {
+  const int r = R > 0 ? R : r_, u = U > 0 ? U : u_;
+  const int m = model.discretization().numElements();
+  const ResidualModel::Operators L = model.operators();
+  double* values = A.valuePtr();
+  const int* outer = A.outerIndexPtr();
+  const int* inner = A.innerIndexPtr();
+  int ids[4 * kMaxBlock];
+  double Lk[kMaxBlock * 4 * kMaxBlock];  // [j][row]
+  for (int k = 0; k < m; ++k) {
+    const double w = elementWeight(k);
+    if (w == 0.0) continue;
+    for (int j = 0; j < u; ++j) {
+      ids[j] = model.unknown(k, j);
+      for (int row = 0; row < r; ++row) Lk[j * r + row] = L(k, row, j);
+    }
+    for (int j = 0; j < u; ++j) {
+      const int* begin = inner + outer[ids[j]];
+      const int* end = inner + outer[ids[j] + 1];
+      for (int i = 0; i < u; ++i) {
+        double sum = 0.0;
+        for (int row = 0; row < r; ++row) sum += Lk[i * r + row] * Lk[j * r + row];
+        values[std::lower_bound(begin, end, ids[i]) - inner] += w * sum;
+      }
+    }
+  }
+}
+
 // The items 0 .. colourOf.size() - 1 grouped by their colour (< colours), each colour's in
 // increasing order, as CSR: colour c's items are order[start[c] .. start[c + 1]).
 void byColour(const std::vector<int>& colourOf, int colours, std::vector<int>& start,
@@ -236,7 +270,7 @@ void RegularizedSystem::buildPattern(bool couplings) {
 
 void RegularizedSystem::assemble() const {
   const Discretization& disc = model_.discretization();
-  const int m = disc.numElements(), r = model_.rows(), u = model_.localSize();
+  const int r = model_.rows(), u = model_.localSize();
   const auto& facets = disc.facets();
   double* values = A_.valuePtr();
   const int* outer = A_.outerIndexPtr();
@@ -252,18 +286,15 @@ void RegularizedSystem::assemble() const {
   // Elements: (1 - beta_k) a_k L_k^T L_k.
   const Eigen::VectorXd& elementWeight = regularizer_.elementWeight();
   const Eigen::VectorXd& facetWeight = regularizer_.facetWeight();
+  if (u == 3 && r == 2)
+    addElementBlocks<2, 3>(model_, elementWeight, r, u, A_);
+  else if (u == 3 && r == 3)
+    addElementBlocks<3, 3>(model_, elementWeight, r, u, A_);
+  else if (u == 4 && r == 3)
+    addElementBlocks<3, 4>(model_, elementWeight, r, u, A_);
+  else
+    addElementBlocks<0, 0>(model_, elementWeight, r, u, A_);
   std::vector<int> ids(static_cast<size_t>(2 * u));
-  for (int k = 0; k < m; ++k) {
-    const double w = elementWeight(k);
-    if (w == 0.0) continue;
-    for (int j = 0; j < u; ++j) ids[j] = model_.unknown(k, j);
-    for (int j = 0; j < u; ++j)
-      for (int i = 0; i < u; ++i) {
-        double sum = 0.0;
-        for (int row = 0; row < r; ++row) sum += Lk(k, row, i) * Lk(k, row, j);
-        entry(ids[i], ids[j]) += w * sum;
-      }
-  }
 
   // Facets: ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) over the union of their unknowns (none
   // without the couplings in the pattern, where every facet weight is 0).
