@@ -9,6 +9,7 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -101,6 +102,20 @@ TEST_CASE("one-pass half-edges equal OpenMesh's add_face on manifold meshes", "[
         INFO("round " << round);
         checkSame(s);
       }
+    }
+  }
+  SECTION("a vertex of high valence: a closed and an open fan") {
+    for (const bool closed : {true, false}) {
+      const int k = 500;
+      Soup s;
+      s.points.emplace_back(0, 0, 0);
+      for (int i = 0; i < k; ++i)
+        s.points.emplace_back(std::cos(6.283185307179586 * i / k),
+                              std::sin(6.283185307179586 * i / k), 0.0);
+      for (int i = 0; i < (closed ? k : k - 1); ++i)
+        s.triangles.push_back({0, 1 + i, 1 + (i + 1) % k});
+      INFO((closed ? "closed" : "open"));
+      checkSame(s);
     }
   }
   SECTION("an unreferenced vertex keeps no half-edge") {

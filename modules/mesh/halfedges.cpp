@@ -15,126 +15,116 @@ std::unique_ptr<TriMesh> buildOrientedManifold(const std::vector<Eigen::Vector3d
   // triangle f to corner j + 1), and up to 3m edges: 2^31 half-edges would overflow OpenMesh's
   // int handles.
   if (m == 0 || 3 * m > (Index(1) << 30)) return nullptr;
-  // The wedges' ends, flat (no division by 3 in the loops below).
   const size_t wedges = static_cast<size_t>(3 * m);
-  std::vector<int> tail(wedges), head(wedges);
-  for (size_t f = 0, w = 0; f < triangles.size(); ++f, w += 3) {
-    const auto& t = triangles[f];
-    tail[w] = head[w + 2] = t[0];
-    tail[w + 1] = head[w] = t[1];
-    tail[w + 2] = head[w + 1] = t[2];
-  }
+  const auto nextCorner = [](size_t j) { return j == 2 ? size_t(0) : j + 1; };
 
-  // The wedges leaving each vertex, by vertex (counting sort), with their end vertices beside.
+  // The wedges leaving each vertex (counting sort), each vertex's sorted by their end vertex:
+  // (end << 32 | wedge). Sorted, a directed edge twice is two equal ends side by side, and the
+  // twin of a wedge a -> b is found by bisection among b's (a fan around one vertex of high
+  // valence stays n log n).
   std::vector<int> first(size_t(n) + 1, 0);
-  for (int v : tail) ++first[size_t(v) + 1];
+  for (const auto& t : triangles)
+    for (int v : t) ++first[size_t(v) + 1];
   for (Index v = 0; v < n; ++v) first[size_t(v) + 1] += first[size_t(v)];
-  std::vector<int> leaving(wedges), leavingTo(wedges);
+  std::vector<std::uint64_t> leaving(wedges);
   {
     std::vector<int> fill(first.begin(), first.end() - 1);
-    for (size_t w = 0; w < wedges; ++w) {
-      const int k = fill[size_t(tail[w])]++;
-      leaving[size_t(k)] = int(w);
-      leavingTo[size_t(k)] = head[w];
-    }
-  }
-  // No directed edge twice: at most two triangles on an edge, and those two in opposite
-  // directions.
-  for (Index v = 0; v < n; ++v)
-    for (int a = first[size_t(v)]; a < first[size_t(v) + 1]; ++a)
-      for (int b = a + 1; b < first[size_t(v) + 1]; ++b)
-        if (leavingTo[size_t(a)] == leavingTo[size_t(b)]) return nullptr;
-  // The wedge running the other way along each wedge's edge, if any.
-  std::vector<int> twin(wedges, -1);
-  for (size_t w = 0; w < wedges; ++w) {
-    const int a = tail[w], b = head[w];
-    for (int k = first[size_t(b)]; k < first[size_t(b) + 1]; ++k)
-      if (leavingTo[size_t(k)] == a) {
-        twin[w] = leaving[size_t(k)];
-        break;
+    for (size_t f = 0, w = 0; f < triangles.size(); ++f)
+      for (size_t j = 0; j < 3; ++j, ++w) {
+        const auto& t = triangles[f];
+        leaving[size_t(fill[size_t(t[j])]++)] =
+            std::uint64_t(std::uint32_t(t[nextCorner(j)])) << 32 | std::uint64_t(w);
       }
   }
+  const auto endOf = [](std::uint64_t key) { return int(key >> 32); };
+  const auto wedgeOf = [](std::uint64_t key) { return int(key & 0xffffffffu); };
+  // Per vertex: its wedge of its last triangle (an interior vertex's outgoing half-edge).
+  std::vector<int> last(size_t(n), -1);
+  for (Index v = 0; v < n; ++v) {
+    const auto begin = leaving.begin() + first[size_t(v)],
+               end = leaving.begin() + first[size_t(v) + 1];
+    std::sort(begin, end);
+    // No directed edge twice: at most two triangles on an edge, in opposite directions.
+    for (auto it = begin; it != end; ++it) {
+      if (it + 1 != end && endOf(*it) == endOf(*(it + 1))) return nullptr;
+      last[size_t(v)] = std::max(last[size_t(v)], wedgeOf(*it));
+    }
+  }
+  // The wedge running the other way along each wedge's edge, if any.
+  const auto twinOf = [&](int a, int b) {
+    const auto begin = leaving.begin() + first[size_t(b)],
+               end = leaving.begin() + first[size_t(b) + 1];
+    const auto it = std::lower_bound(begin, end, std::uint64_t(std::uint32_t(a)) << 32);
+    return it != end && endOf(*it) == a ? wedgeOf(*it) : -1;
+  };
 
   // Edges in the order triangles name them, half-edge 2e along the first one, 2e + 1 against it
-  // (along the twin, or on the boundary).
-  std::vector<int> halfedge(size_t(3 * m), -1);
-  Index edges = 0;
-  for (Index w = 0; w < 3 * m; ++w) {
-    if (halfedge[size_t(w)] >= 0) continue;
-    halfedge[size_t(w)] = int(2 * edges);
-    if (twin[size_t(w)] >= 0) halfedge[size_t(twin[size_t(w)])] = int(2 * edges + 1);
-    ++edges;
-  }
-  const Index halfedges = 2 * edges;
-  const size_t numHalfedges = static_cast<size_t>(halfedges);
-  std::vector<int> target(numHalfedges), face(numHalfedges, -1), next(numHalfedges, -1),
-      creator(static_cast<size_t>(edges), -1);
-  for (size_t f = 0, w = 0; f < triangles.size(); ++f) {
+  // (along the twin, or on the boundary: from the wedge's end back to its start). A vertex with
+  // more than one boundary half-edge leaving it has two gaps in its fan: not a manifold vertex.
+  std::vector<int> halfedge(wedges, -1), boundaryLeaving(size_t(n), -1);
+  std::vector<std::pair<int, int>> boundary;  // (half-edge, its end vertex)
+  int edges = 0;
+  for (size_t f = 0, w = 0; f < triangles.size(); ++f)
     for (size_t j = 0; j < 3; ++j, ++w) {
-      const int h = halfedge[w];
-      target[size_t(h)] = head[w];
-      face[size_t(h)] = int(f);
-      next[size_t(h)] = halfedge[j == 2 ? w - 2 : w + 1];
-      if (!(h & 1)) creator[size_t(h / 2)] = int(w);
+      if (halfedge[w] >= 0) continue;
+      const int a = triangles[f][j], b = triangles[f][nextCorner(j)];
+      halfedge[w] = 2 * edges;
+      const int twin = twinOf(a, b);
+      if (twin >= 0) {
+        halfedge[size_t(twin)] = 2 * edges + 1;
+      } else {
+        int& out = boundaryLeaving[size_t(b)];
+        if (out >= 0) return nullptr;
+        out = 2 * edges + 1;
+        boundary.emplace_back(2 * edges + 1, a);
+      }
+      ++edges;
     }
-  }
-  // Boundary half-edges: one leaving any vertex at most (a vertex with two gaps in its fan is
-  // not a manifold vertex); each continues with the one leaving its end.
-  std::vector<int> boundaryLeaving(size_t(n), -1);
-  for (Index e = 0; e < edges; ++e) {
-    const Index h = 2 * e + 1;
-    if (face[size_t(h)] >= 0) continue;
-    const int w = creator[size_t(e)];
-    target[size_t(h)] = tail[size_t(w)];
-    int& out = boundaryLeaving[size_t(head[size_t(w)])];
-    if (out >= 0) return nullptr;
-    out = int(h);
-  }
-  for (Index e = 0; e < edges; ++e) {
-    const Index h = 2 * e + 1;
-    if (face[size_t(h)] < 0) next[size_t(h)] = boundaryLeaving[size_t(target[size_t(h)])];
-  }
-
-  // Every vertex's triangles one fan: turning from one half-edge leaving the vertex to the next
-  // (next of the opposite) visits all of them before it comes back.
-  std::vector<int> outgoing(size_t(n), -1);
-  for (Index v = 0; v < n; ++v) {
-    const int count = first[size_t(v) + 1] - first[size_t(v)];
-    if (count == 0) continue;  // isolated: no half-edge, as OpenMesh leaves it
-    int last = -1;             // the wedge of the vertex's last triangle
-    for (int k = first[size_t(v)]; k < first[size_t(v) + 1]; ++k)
-      last = std::max(last, leaving[size_t(k)]);
-    const int start =
-        boundaryLeaving[size_t(v)] >= 0 ? boundaryLeaving[size_t(v)] : halfedge[size_t(last)];
-    int seen = 0, h = start;
-    for (int step = 0; step <= count; ++step) {
-      if (face[size_t(h)] >= 0) ++seen;
-      h = next[size_t(h ^ 1)];
-      if (h == start) break;
-    }
-    if (h != start || seen != count) return nullptr;
-    outgoing[size_t(v)] = start;
-  }
+  std::vector<std::uint64_t>().swap(leaving);
 
   auto mesh = std::make_unique<TriMesh>();
   TriMesh& tri = *mesh;
   tri.resize(size_t(n), size_t(edges), size_t(m));
+  using HH = OpenMesh::HalfedgeHandle;
+  for (size_t f = 0, w = 0; f < triangles.size(); ++f) {
+    const OpenMesh::FaceHandle fh{int(f)};
+    for (size_t j = 0; j < 3; ++j, ++w) {
+      const HH h{halfedge[w]};
+      tri.set_vertex_handle(h, OpenMesh::VertexHandle(triangles[f][nextCorner(j)]));
+      tri.set_face_handle(h, fh);
+      tri.set_next_halfedge_handle(h, HH(halfedge[j == 2 ? w - 2 : w + 1]));
+    }
+    tri.set_halfedge_handle(fh, HH(halfedge[3 * f + 2]));  // a face keeps its last corner's
+  }
+  for (const auto& [h, to] : boundary) {  // continues with the one leaving its end
+    tri.set_vertex_handle(HH(h), OpenMesh::VertexHandle(to));
+    tri.set_next_halfedge_handle(HH(h), HH(boundaryLeaving[size_t(to)]));
+  }
   for (Index v = 0; v < n; ++v) {
     const Eigen::Vector3d& p = points[size_t(v)];
     const OpenMesh::VertexHandle vh{static_cast<int>(v)};
     tri.set_point(vh, TriMesh::Point(p[0], p[1], p[2]));
-    if (outgoing[size_t(v)] >= 0)
-      tri.set_halfedge_handle(vh, OpenMesh::HalfedgeHandle(outgoing[size_t(v)]));
+    if (last[size_t(v)] < 0) continue;  // isolated: no half-edge, as OpenMesh leaves it
+    const int leavingBoundary = boundaryLeaving[size_t(v)];
+    tri.set_halfedge_handle(
+        vh, HH(leavingBoundary >= 0 ? leavingBoundary : halfedge[size_t(last[size_t(v)])]));
   }
-  for (Index h = 0; h < halfedges; ++h) {
-    const OpenMesh::HalfedgeHandle hh{static_cast<int>(h)};
-    tri.set_vertex_handle(hh, OpenMesh::VertexHandle(target[size_t(h)]));
-    if (face[size_t(h)] >= 0) tri.set_face_handle(hh, OpenMesh::FaceHandle(face[size_t(h)]));
-    tri.set_next_halfedge_handle(hh, OpenMesh::HalfedgeHandle(next[size_t(h)]));
+
+  // Every vertex's triangles one fan: turning from one half-edge leaving the vertex to the next
+  // (next of the opposite) visits all of them before it comes back.
+  for (Index v = 0; v < n; ++v) {
+    const int count = first[size_t(v) + 1] - first[size_t(v)];
+    if (count == 0) continue;
+    const HH start = tri.halfedge_handle(OpenMesh::VertexHandle(static_cast<int>(v)));
+    HH h = start;
+    int seen = 0;
+    for (int step = 0; step <= count; ++step) {
+      if (!tri.is_boundary(h)) ++seen;
+      h = tri.next_halfedge_handle(tri.opposite_halfedge_handle(h));
+      if (h == start) break;
+    }
+    if (h != start || seen != count) return nullptr;
   }
-  for (Index f = 0; f < m; ++f)  // a face keeps the half-edge of its last corner
-    tri.set_halfedge_handle(OpenMesh::FaceHandle(int(f)),
-                            OpenMesh::HalfedgeHandle(halfedge[size_t(3 * f + 2)]));
   return mesh;
 }
 
