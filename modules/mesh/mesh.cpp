@@ -138,9 +138,13 @@ Eigen::MatrixXi Mesh::elements() const {
     for (int k = 0; k < m; ++k)
       for (int j = 0; j < 4; ++j) e(k, j) = tet_.tets[k][j];
   } else {
-    for (auto f : tri_->faces()) {
-      int j = 0;
-      for (auto v : tri_->fv_range(f)) e(f.idx(), j++) = v.idx();
+    // As fv_range(f): the ends of the face's half-edge and of the two after it (directly: the
+    // circulator costs several times more on every call over a large mesh).
+    const TriMesh& t = *tri_;
+    for (auto f : t.faces()) {
+      OpenMesh::HalfedgeHandle h = t.halfedge_handle(f);
+      for (int j = 0; j < 3; ++j, h = t.next_halfedge_handle(h))
+        e(f.idx(), j) = t.to_vertex_handle(h).idx();
     }
   }
   return e;
