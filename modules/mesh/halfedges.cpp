@@ -14,7 +14,7 @@ std::unique_ptr<TriMesh> buildOrientedManifold(const std::vector<Eigen::Vector3d
   // 3m corners, each the start of one directed edge ("wedge" w = 3 f + j: from corner j of
   // triangle f to corner j + 1), and up to 3m edges: 2^31 half-edges would overflow OpenMesh's
   // int handles.
-  if (m == 0 || 3 * m > (Index(1) << 30)) return nullptr;
+  if (m == 0 || 3 * m >= (Index(1) << 30)) return nullptr;
   const size_t wedges = static_cast<size_t>(3 * m);
   const auto nextCorner = [](size_t j) { return j == 2 ? size_t(0) : j + 1; };
 
