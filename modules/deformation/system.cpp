@@ -236,14 +236,21 @@ void RegularizedSystem::buildTopology() {
 void RegularizedSystem::buildPattern(bool couplings) {
   patternChanged_ = true;
   const int u = model_.localSize(), N = model_.numUnknowns();
+  const int m = model_.discretization().numElements();
+  // Every element's unknowns side by side (the elements' matrix is stored by columns): read
+  // once per element around each unknown.
+  std::vector<int> unknowns(static_cast<size_t>(m) * u);
+  for (int k = 0; k < m; ++k)
+    for (int j = 0; j < u; ++j) unknowns[static_cast<size_t>(k) * u + j] = model_.unknown(k, j);
   std::vector<int> outer(static_cast<size_t>(N) + 1, 0), inner, mark(static_cast<size_t>(N), -1);
   std::vector<int> column;
   inner.reserve(incidence_.size() * (couplings ? 4 : 2));
   for (int p = 0; p < N; ++p) {
     column.clear();
     auto addElement = [&](int k) {
+      const int* ids = unknowns.data() + static_cast<size_t>(k) * u;
       for (int j = 0; j < u; ++j) {
-        const int q = model_.unknown(k, j);
+        const int q = ids[j];
         if (mark[q] != p) {
           mark[q] = p;
           column.push_back(q);
