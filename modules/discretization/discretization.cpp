@@ -230,8 +230,11 @@ void Discretization::buildComponents(const Eigen::MatrixXd& P3) {
   const int k = static_cast<int>(elements_.cols());
   active_.assign(n, false);
   DisjointSets sets(n);
-  for (int e = 0; e < m; ++e)
-    for (int i = 0; i < k; ++i) {
+  // Column by column (the elements are stored so): the same sets in any order of unions, and
+  // the components below are numbered by their first vertex, not by the sets' roots.
+  for (int e = 0; e < m; ++e) active_[elements_(e, 0)] = true;
+  for (int i = 1; i < k; ++i)
+    for (int e = 0; e < m; ++e) {
       active_[elements_(e, i)] = true;
       sets.unite(elements_(e, 0), elements_(e, i));
     }
