@@ -148,17 +148,11 @@ DeformationResult DeformationCore::solveFrom(const Eigen::MatrixXd& initial, int
 }
 
 Eigen::MatrixXd DeformationCore::restSolve() {
-  // The rest targets and their right-hand side change only with the weights: every handle move
-  // starts from them (the first global step of the iterative energies, the only one of the
-  // linear energies).
-  // Only the right-hand side is kept (n x d; the targets are m d x d). The factorization comes
-  // first, so that its peak memory does not add to the targets' and the right-hand side's.
+  // The rest targets' right-hand side changes only with the weights: every handle move starts
+  // from it (the first global step of the iterative energies, the only one of the linear
+  // energies). It is A x_rest (RegularizedSystem::restRightHandSide), after the factorization.
   system_.factorize();
-  if (restRhs_.size() == 0) {
-    Stacked restTargets;
-    model_.targets(disc_.rest(), restTargets);
-    system_.rightHandSide(restTargets, restRhs_);
-  }
+  if (restRhs_.size() == 0) system_.restRightHandSide(restRhs_);
   if (options_.handleBasis && !model_.coupled()) {
     if (!basis_) basis_ = std::make_unique<HandleBasis>(disc_, handles_);
     if (basis_->usable()) {
@@ -195,11 +189,7 @@ double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X
     X = system_.solve(t_, targets_);
     result.iterations = 1;
   } else if (initSystem_ && initSystem_->singularity().empty()) {
-    if (initRhs_.size() == 0) {
-      Stacked t0;
-      initModel_->targets(disc_.rest(), t0);  // constant: ASAP is linear in 2D
-      initSystem_->rightHandSide(t0, initRhs_);
-    }
+    if (initRhs_.size() == 0) initSystem_->restRightHandSide(initRhs_);  // ASAP is linear in 2D
     X = initSystem_->solveRightHandSide(initRhs_, targets_);
     result.initialGuess = "asap";
   } else {

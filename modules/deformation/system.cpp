@@ -339,6 +339,17 @@ void RegularizedSystem::rightHandSide(const Stacked& t, Eigen::MatrixXd& b) cons
   applyC(t, nullptr, b);
 }
 
+void RegularizedSystem::restRightHandSide(Eigen::MatrixXd& b) const {
+  const Eigen::MatrixXd& rest = model_.discretization().rest();
+  if (!model_.iterative()) {  // fixed targets, no fits: C t keeps planar ASAP's exact zeros
+    Stacked t;
+    model_.targets(rest, t);
+    applyC(t, nullptr, b);
+    return;
+  }
+  b.noalias() = matrix() * model_.toUnknowns(rest);
+}
+
 void RegularizedSystem::residualGradient(const Stacked& F, const Stacked& t, Eigen::MatrixXd& g) {
   applyC(t, &F, g);
   zeroFixed(g);
