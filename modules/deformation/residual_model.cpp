@@ -244,9 +244,11 @@ void ResidualModel::residuals(const Eigen::MatrixXd& X, const Stacked& t, Stacke
 }
 
 Stacked ResidualModel::residuals(const Eigen::MatrixXd& X) const {
-  Stacked t, e;
-  targets(X, t);
-  residuals(X, t, e);
+  // targets() and residuals(X, t, e) would compute the gradients twice.
+  Stacked e, t;
+  gradients(X, e);
+  fitTargets(e, t);
+  e -= t;
   return e;
 }
 
