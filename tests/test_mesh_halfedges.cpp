@@ -149,6 +149,36 @@ TEST_CASE("one-pass half-edges decline what is not an oriented manifold", "[mesh
   CHECK_FALSE(buildOrientedManifold(points, T{}));
 }
 
+TEST_CASE("a triangle mesh in one pass or face by face, naming the face add_face refuses",
+          "[mesh][halfedges]") {
+  const std::vector<Eigen::Vector3d> points = {{0, 0, 0},  {1, 0, 0}, {0, 1, 0}, {-1, 0, 0},
+                                               {0, -1, 0}, {1, 1, 1}, {0, 0, 1}};
+  using T = std::vector<std::array<int, 3>>;
+  // A manifold, and two triangles meeting at a vertex only (no one-pass structure, but
+  // add_face takes them): both what add_face builds.
+  for (const T& triangles : {T{{0, 1, 2}, {0, 2, 3}, {0, 3, 4}}, T{{0, 1, 2}, {0, 3, 4}}}) {
+    std::ptrdiff_t refused = 7;
+    const auto built = buildTriangleMesh(points, triangles, refused);
+    REQUIRE(built);
+    CHECK(refused == -1);
+    TriMesh expected;
+    REQUIRE(incremental({points, triangles}, expected));
+    CHECK(difference(expected, *built) == "");
+  }
+  // Refused: a flipped neighbour, a third triangle on an edge, a repeated vertex (after a
+  // face that is fine, and before one add_face would refuse).
+  const std::vector<std::pair<T, std::ptrdiff_t>> refusals = {
+      {T{{0, 1, 2}, {0, 2, 3}, {0, 1, 4}}, 2},
+      {T{{0, 1, 2}, {1, 0, 4}, {1, 0, 6}}, 2},
+      {T{{0, 1, 2}, {2, 5, 2}, {0, 1, 4}}, 1},
+  };
+  for (const auto& [triangles, face] : refusals) {
+    std::ptrdiff_t refused = -1;
+    CHECK_FALSE(buildTriangleMesh(points, triangles, refused));
+    CHECK(refused == face);
+  }
+}
+
 TEST_CASE("one-pass half-edges of the shared surface and planar meshes", "[mesh][halfedges]") {
   const fs::path dir = DIFFREG_SHARED_MESHES;
   if (!fs::exists(dir)) {

@@ -1,7 +1,7 @@
 #include <diffreg/discretization/discretization.h>
 
 #include <diffreg/core/error.h>
-#include <diffreg/mesh/parse.h>
+#include <diffreg/mesh/halfedges.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -332,22 +332,20 @@ Discretization::Discretization(MeshKind kind, const Eigen::MatrixXd& positions,
     return;
   }
   checkElements(kind, positions, elements, 3);
-  TriMesh tri;
-  OpenMeshQuiet quiet;  // add_face's complaints become our one-line error
-  tri.reserve(static_cast<size_t>(positions.rows()), static_cast<size_t>(elements.rows()) * 3 / 2,
-              static_cast<size_t>(elements.rows()));
-  for (Eigen::Index i = 0; i < positions.rows(); ++i) tri.add_vertex(TriMesh::Point(0, 0, 0));
-  for (Eigen::Index e = 0; e < elements.rows(); ++e) {
-    const TriMesh::FaceHandle f =
-        tri.add_face(OpenMesh::VertexHandle(elements(e, 0)), OpenMesh::VertexHandle(elements(e, 1)),
-                     OpenMesh::VertexHandle(elements(e, 2)));
-    if (!f.is_valid())
-      throw InvalidMesh("discretization: triangle " + std::to_string(e) +
-                        " does not fit an oriented edge-manifold mesh (an edge with a third "
-                        "triangle, an edge in the same direction twice, or a repeated vertex); "
-                        "readMesh splits such triangles");
-  }
-  build(kind, positions, elements, &tri);
+  // The structure only: the positions are the discretization's.
+  const std::vector<Eigen::Vector3d> points(static_cast<size_t>(positions.rows()),
+                                            Eigen::Vector3d::Zero());
+  std::vector<std::array<int, 3>> triangles(static_cast<size_t>(elements.rows()));
+  for (Eigen::Index e = 0; e < elements.rows(); ++e)
+    triangles[static_cast<size_t>(e)] = {elements(e, 0), elements(e, 1), elements(e, 2)};
+  std::ptrdiff_t refused = -1;
+  const auto tri = buildTriangleMesh(points, triangles, refused);
+  if (!tri)
+    throw InvalidMesh("discretization: triangle " + std::to_string(refused) +
+                      " does not fit an oriented edge-manifold mesh (an edge with a third "
+                      "triangle, an edge in the same direction twice, or a repeated vertex); "
+                      "readMesh splits such triangles");
+  build(kind, positions, elements, tri.get());
 }
 
 }  // namespace diffreg

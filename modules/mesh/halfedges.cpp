@@ -1,5 +1,7 @@
 #include <diffreg/mesh/halfedges.h>
 
+#include <diffreg/mesh/parse.h>
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -124,6 +126,33 @@ std::unique_ptr<TriMesh> buildOrientedManifold(const std::vector<Eigen::Vector3d
       if (h == start) break;
     }
     if (h != start || seen != count) return nullptr;
+  }
+  return mesh;
+}
+
+std::unique_ptr<TriMesh> buildTriangleMesh(const std::vector<Eigen::Vector3d>& points,
+                                           const std::vector<std::array<int, 3>>& triangles,
+                                           std::ptrdiff_t& refused) {
+  refused = -1;
+  const auto distinct = [](const std::array<int, 3>& t) {
+    return t[0] != t[1] && t[1] != t[2] && t[0] != t[2];
+  };
+  // buildOrientedManifold wants three distinct corners; the loop below names the triangle.
+  if (std::all_of(triangles.begin(), triangles.end(), distinct))
+    if (auto built = buildOrientedManifold(points, triangles)) return built;
+  auto mesh = std::make_unique<TriMesh>();
+  TriMesh& tri = *mesh;
+  OpenMeshQuiet quiet;
+  tri.reserve(points.size(), triangles.size() * 3 / 2, triangles.size());
+  for (const Eigen::Vector3d& p : points) tri.add_vertex(TriMesh::Point(p[0], p[1], p[2]));
+  for (size_t f = 0; f < triangles.size(); ++f) {
+    const auto& t = triangles[f];
+    if (!distinct(t) || !tri.add_face(OpenMesh::VertexHandle(t[0]), OpenMesh::VertexHandle(t[1]),
+                      OpenMesh::VertexHandle(t[2]))
+             .is_valid()) {
+      refused = static_cast<std::ptrdiff_t>(f);
+      return nullptr;
+    }
   }
   return mesh;
 }

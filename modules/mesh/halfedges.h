@@ -28,4 +28,13 @@ namespace diffreg {
 std::unique_ptr<TriMesh> buildOrientedManifold(const std::vector<Eigen::Vector3d>& points,
                                                const std::vector<std::array<int, 3>>& triangles);
 
+/// The TriMesh of `points` and `triangles` (vertex indices checked in range by the caller):
+/// buildOrientedManifold's when it applies, else the triangles added one by one with add_face
+/// (OpenMesh's complaints silenced). Null when add_face refuses a triangle (a repeated vertex, an
+/// edge with a third triangle or in the same direction twice); `refused` is then its index, else
+/// -1. For callers that report such a triangle rather than split it (the readers split them).
+std::unique_ptr<TriMesh> buildTriangleMesh(const std::vector<Eigen::Vector3d>& points,
+                                           const std::vector<std::array<int, 3>>& triangles,
+                                           std::ptrdiff_t& refused);
+
 }  // namespace diffreg

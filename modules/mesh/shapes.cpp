@@ -55,17 +55,9 @@ int cellsAlong(const char* function, const char* name, double length, int cellsP
 /// Builds the TriMesh from points and triangles (indices into points).
 Mesh buildTriMesh(const char* function, const std::vector<Eigen::Vector3d>& points,
                   const std::vector<Triangle>& triangles) {
-  if (auto built = buildOrientedManifold(points, triangles)) return Mesh(std::move(built));
-  TriMesh tri;  // adding them one by one names the face that does not fit
-  std::vector<TriMesh::VertexHandle> handles;
-  handles.reserve(points.size());
-  for (const Eigen::Vector3d& p : points)
-    handles.push_back(tri.add_vertex(TriMesh::Point(p.x(), p.y(), p.z())));
-  for (std::size_t f = 0; f < triangles.size(); ++f) {
-    const Triangle& t = triangles[f];
-    if (!tri.add_face(handles[t[0]], handles[t[1]], handles[t[2]]).is_valid())
-      fail(function, "face " + std::to_string(f) + " makes the mesh non-manifold");
-  }
+  std::ptrdiff_t refused = -1;
+  auto tri = buildTriangleMesh(points, triangles, refused);
+  if (!tri) fail(function, "face " + std::to_string(refused) + " makes the mesh non-manifold");
   return Mesh(std::move(tri));
 }
 

@@ -1,8 +1,10 @@
 #include "convert.h"
 
 #include <diffreg/core/error.h>
+#include <diffreg/mesh/halfedges.h>
 #include <diffreg/mesh/io.h>
 
+#include <array>
 #include <cmath>
 #include <exception>
 #include <sstream>
@@ -132,19 +134,21 @@ Mesh toMesh(const py::handle& V, const py::handle& E) {
     validateMesh(mesh, source);
     return mesh;
   }
-  TriMesh tri;
-  std::vector<TriMesh::VertexHandle> vh;
-  vh.reserve(static_cast<std::size_t>(P.rows()));
+  std::vector<Eigen::Vector3d> points(static_cast<std::size_t>(P.rows()));
   for (Eigen::Index i = 0; i < P.rows(); ++i)
-    vh.push_back(tri.add_vertex(TriMesh::Point(P(i, 0), P(i, 1), P(i, 2))));
+    points[static_cast<std::size_t>(i)] = Eigen::Vector3d(P(i, 0), P(i, 1), P(i, 2));
+  std::vector<std::array<int, 3>> triangles(static_cast<std::size_t>(T.rows()));
   for (Eigen::Index k = 0; k < T.rows(); ++k) {
     const int a = T(k, 0), b = T(k, 1), c = T(k, 2);
     if (a == b || b == c || a == c)
       throw InvalidMesh(source + ": face " + std::to_string(k) + " (0-based) repeats a vertex");
-    if (!tri.add_face(vh[a], vh[b], vh[c]).is_valid())
-      throw InvalidMesh(source + ": face " + std::to_string(k) +
-                        " (0-based) makes the mesh non-manifold or flips its orientation");
+    triangles[static_cast<std::size_t>(k)] = {a, b, c};
   }
+  std::ptrdiff_t refused = -1;
+  auto tri = buildTriangleMesh(points, triangles, refused);
+  if (!tri)
+    throw InvalidMesh(source + ": face " + std::to_string(refused) +
+                      " (0-based) makes the mesh non-manifold or flips its orientation");
   Mesh mesh(std::move(tri));
   validateMesh(mesh, source);
   return mesh;
