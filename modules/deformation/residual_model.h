@@ -55,6 +55,7 @@ class ResidualModel {
   /// Global unknown index of element k's local unknown j (inline: the right-hand side's scatter
   /// calls it for every element and local unknown).
   int unknown(int k, int j) const {
+    if (dofsPerVertex_ == 1) return disc_.elements()(k, j);  // separable: no division
     const int v = disc_.elements()(k, j / dofsPerVertex_);
     return v * dofsPerVertex_ + j % dofsPerVertex_;
   }

@@ -122,6 +122,48 @@ void addElementBlocks(const ResidualModel& model, const Eigen::VectorXd& element
   }
 }
 
+// Adds ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) of every facet with a nonzero weight to A's
+// values, over the union of its two elements' unknowns (sizes as addElementBlocks). Each entry
+// sums its rows in order; (i, j) and (j, i) get the same sum, computed once.
+template <int R, int U>
+void addFacetBlocks(const ResidualModel& model, const std::vector<Facet>& facets,
+                    const Eigen::VectorXd& facetWeight, int r_, int u_, SparseMatrix& A) {
+  const int r = R > 0 ? R : r_, u = U > 0 ? U : u_;
+  const ResidualModel::Operators L = model.operators();
+  double* values = A.valuePtr();
+  const int* outer = A.outerIndexPtr();
+  const int* inner = A.innerIndexPtr();
+  int ids[8 * kMaxBlock];
+  double M[kMaxBlock * 8 * kMaxBlock];  // [unknown][row]
+  for (size_t f = 0; f < facets.size(); ++f) {
+    const double w = facetWeight(static_cast<Eigen::Index>(f));
+    if (w == 0.0) continue;
+    const Facet& fc = facets[f];
+    int n = u;
+    for (int j = 0; j < u; ++j) {
+      ids[j] = model.unknown(fc.k, j);
+      for (int row = 0; row < r; ++row) M[j * r + row] = L(fc.k, row, j);
+    }
+    for (int j = 0; j < u; ++j) {
+      const int id = model.unknown(fc.l, j);
+      int pos = 0;
+      while (pos < n && ids[pos] != id) ++pos;
+      if (pos == n) {
+        ids[n++] = id;
+        for (int row = 0; row < r; ++row) M[pos * r + row] = 0.0;
+      }
+      for (int row = 0; row < r; ++row) M[pos * r + row] -= L(fc.l, row, j);
+    }
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i <= j; ++i) {
+        double sum = 0.0;
+        for (int row = 0; row < r; ++row) sum += M[i * r + row] * M[j * r + row];
+        values[entryIndex(outer, inner, ids[i], ids[j])] += w * sum;
+        if (i != j) values[entryIndex(outer, inner, ids[j], ids[i])] += w * sum;
+      }
+  }
+}
+
 // The items 0 .. colourOf.size() - 1 grouped by their colour (< colours), each colour's in
 // increasing order, as CSR: colour c's items are order[start[c] .. start[c + 1]).
 void byColour(const std::vector<int>& colourOf, int colours, std::vector<int>& start,
@@ -291,59 +333,26 @@ void RegularizedSystem::buildPattern(bool couplings) {
 }
 
 void RegularizedSystem::assemble() const {
-  const Discretization& disc = model_.discretization();
   const int r = model_.rows(), u = model_.localSize();
-  const auto& facets = disc.facets();
-  double* values = A_.valuePtr();
-  const int* outer = A_.outerIndexPtr();
-  const int* inner = A_.innerIndexPtr();
-  std::fill(values, values + A_.nonZeros(), 0.0);
-  auto entry = [&](int row, int col) -> double& {
-    return values[entryIndex(outer, inner, row, col)];
-  };
-  const ResidualModel::Operators Lk = model_.operators();
-
-  // Elements: (1 - beta_k) a_k L_k^T L_k.
+  std::fill(A_.valuePtr(), A_.valuePtr() + A_.nonZeros(), 0.0);
+  // Elements: (1 - beta_k) a_k L_k^T L_k. Facets: ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l),
+  // none without the couplings in the pattern (every facet weight is 0 then).
   const Eigen::VectorXd& elementWeight = regularizer_.elementWeight();
   const Eigen::VectorXd& facetWeight = regularizer_.facetWeight();
-  if (u == 3 && r == 2)
+  const std::vector<Facet> noFacets;
+  const std::vector<Facet>& facets = couplings_ ? model_.discretization().facets() : noFacets;
+  if (u == 3 && r == 2) {
     addElementBlocks<2, 3>(model_, elementWeight, r, u, A_);
-  else if (u == 3 && r == 3)
+    addFacetBlocks<2, 3>(model_, facets, facetWeight, r, u, A_);
+  } else if (u == 3 && r == 3) {
     addElementBlocks<3, 3>(model_, elementWeight, r, u, A_);
-  else if (u == 4 && r == 3)
+    addFacetBlocks<3, 3>(model_, facets, facetWeight, r, u, A_);
+  } else if (u == 4 && r == 3) {
     addElementBlocks<3, 4>(model_, elementWeight, r, u, A_);
-  else
+    addFacetBlocks<3, 4>(model_, facets, facetWeight, r, u, A_);
+  } else {
     addElementBlocks<0, 0>(model_, elementWeight, r, u, A_);
-  std::vector<int> ids(static_cast<size_t>(2 * u));
-
-  // Facets: ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) over the union of their unknowns (none
-  // without the couplings in the pattern, where every facet weight is 0).
-  std::vector<double> M(static_cast<size_t>(r) * 2 * u);  // r x U, column-major
-  for (size_t f = 0; couplings_ && f < facets.size(); ++f) {
-    const double w = facetWeight(static_cast<Eigen::Index>(f));
-    if (w == 0.0) continue;
-    const Facet& fc = facets[f];
-    int U = u;
-    for (int j = 0; j < u; ++j) {
-      ids[j] = model_.unknown(fc.k, j);
-      for (int row = 0; row < r; ++row) M[j * r + row] = Lk(fc.k, row, j);
-    }
-    for (int j = 0; j < u; ++j) {
-      const int id = model_.unknown(fc.l, j);
-      int pos = 0;
-      while (pos < U && ids[pos] != id) ++pos;
-      if (pos == U) {
-        ids[U++] = id;
-        for (int row = 0; row < r; ++row) M[pos * r + row] = 0.0;
-      }
-      for (int row = 0; row < r; ++row) M[pos * r + row] -= Lk(fc.l, row, j);
-    }
-    for (int j = 0; j < U; ++j)
-      for (int i = 0; i < U; ++i) {
-        double sum = 0.0;
-        for (int row = 0; row < r; ++row) sum += M[i * r + row] * M[j * r + row];
-        entry(ids[i], ids[j]) += w * sum;
-      }
+    addFacetBlocks<0, 0>(model_, facets, facetWeight, r, u, A_);
   }
   valuesDirty_ = false;
 }
