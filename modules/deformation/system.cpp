@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 
 namespace diffreg {
@@ -186,6 +187,12 @@ RegularizedSystem::RegularizedSystem(const ResidualModel& model, SolverBackend b
       reserveCouplings_(reserveCouplings),
       solver_(backend) {
   solver_.trustPatterns();  // buildPattern() is the only place A's pattern changes
+  // The element and facet blocks' scratch arrays hold kMaxBlock rows and 4 kMaxBlock unknowns
+  // an element (every layout today: at most 9 and 12).
+  if (model.rows() > kMaxBlock || model.localSize() > 4 * kMaxBlock)
+    throw std::logic_error("RegularizedSystem: a layout of " + std::to_string(model.rows()) +
+                           " rows and " + std::to_string(model.localSize()) +
+                           " unknowns an element exceeds the blocks' scratch arrays");
   buildTopology();
   setWeights(makeRegularizationWeights(model.discretization(), Regularization::None, 0.0));
 }
@@ -363,19 +370,27 @@ void RegularizedSystem::rightHandSide(const Stacked& t, Eigen::MatrixXd& b) cons
 
 void RegularizedSystem::restRightHandSide(Eigen::MatrixXd& b) const {
   const Eigen::MatrixXd& rest = model_.discretization().rest();
-  if (!model_.iterative()) {  // fixed targets, no fits: C t keeps planar ASAP's exact zeros
+  if (!model_.iterative() || model_.coupled()) {
+    // Fixed targets need no fits, and C t keeps planar ASAP's exact zeros; every coupled layout
+    // is a linear energy's.
     Stacked t;
     model_.targets(rest, t);
     applyC(t, nullptr, b);
     return;
   }
-  // Separable layouts: the unknowns are the positions themselves. A copy of them (24 MB at 1M
-  // vertices) raised the 1M editor scenario's peak by 38 MB: once freed, it lifts glibc's mmap
-  // threshold, and later blocks of that size stay in the heap.
-  if (model_.coupled())
-    b.noalias() = matrix() * model_.toUnknowns(rest);
-  else
-    b.noalias() = matrix() * rest;
+  // A x_rest on the separable layout (the unknowns are the positions), about the centroid: A
+  // annihilates translations, and the rounding then follows the mesh's size rather than its
+  // distance from the origin. Read in place: a copy of the positions (24 MB at 1M vertices)
+  // raised the 1M editor scenario's peak by 38 MB, as a freed block of that size lifts glibc's
+  // mmap threshold and later blocks of its size stay in the heap.
+  const SparseMatrix& A = matrix();
+  const Eigen::RowVectorXd center = rest.colwise().mean();
+  b.setZero(A.rows(), rest.cols());
+  for (Eigen::Index col = 0; col < rest.cols(); ++col)
+    for (Eigen::Index j = 0; j < A.outerSize(); ++j) {
+      const double x = rest(j, col) - center(col);
+      for (SparseMatrix::InnerIterator it(A, j); it; ++it) b(it.row(), col) += it.value() * x;
+    }
 }
 
 void RegularizedSystem::residualGradient(const Stacked& F, const Stacked& t, Eigen::MatrixXd& g) {

@@ -89,10 +89,11 @@ class RegularizedSystem {
   void rightHandSide(const Stacked& t, Eigen::MatrixXd& b) const;
   /// The right-hand side for the rest shape's own targets. Every energy's residual vanishes at
   /// the rest shape (its targets there are the rest blocks, t_k = L_k x_rest), so for the
-  /// iterative energies C t = C L x_rest = A x_rest: one product with A instead of every
-  /// element's fit and C's scatter, equal to rightHandSide(rest targets) to rounding (a test
-  /// checks every energy and mesh kind). The linear energies' fixed targets go through C, which
-  /// keeps exact zeros exact (planar ASAP's).
+  /// iterative energies C t = C L x_rest = A x_rest: one product with A (about the centroid)
+  /// instead of every element's fit and C's scatter, equal to rightHandSide(rest targets) to
+  /// rounding (a test checks every energy, mesh kind and regularization, near and far from the
+  /// origin). The linear energies' fixed targets go through C, which keeps exact zeros exact
+  /// (planar ASAP's).
   void restRightHandSide(Eigen::MatrixXd& b) const;
   /// The energy gradient's direction A x - C t = C (F - t) for F the stacked L_k x_k of the
   /// same x (ResidualModel::gradients), on the free unknowns (0 on the fixed ones): one pass

@@ -6,6 +6,7 @@
 #include <diffreg/mesh/mesh.h>
 
 #include <array>
+#include <cstddef>
 #include <memory>
 #include <vector>
 

@@ -138,17 +138,17 @@ Mesh toMesh(const py::handle& V, const py::handle& E) {
   for (Eigen::Index i = 0; i < P.rows(); ++i)
     points[static_cast<std::size_t>(i)] = Eigen::Vector3d(P(i, 0), P(i, 1), P(i, 2));
   std::vector<std::array<int, 3>> triangles(static_cast<std::size_t>(T.rows()));
-  for (Eigen::Index k = 0; k < T.rows(); ++k) {
-    const int a = T(k, 0), b = T(k, 1), c = T(k, 2);
-    if (a == b || b == c || a == c)
-      throw InvalidMesh(source + ": face " + std::to_string(k) + " (0-based) repeats a vertex");
-    triangles[static_cast<std::size_t>(k)] = {a, b, c};
-  }
+  for (Eigen::Index k = 0; k < T.rows(); ++k)
+    triangles[static_cast<std::size_t>(k)] = {T(k, 0), T(k, 1), T(k, 2)};
   std::ptrdiff_t refused = -1;
   auto tri = buildTriangleMesh(points, triangles, refused);
-  if (!tri)
-    throw InvalidMesh(source + ": face " + std::to_string(refused) +
-                      " (0-based) makes the mesh non-manifold or flips its orientation");
+  if (!tri) {  // the first face that does not fit, with its reason
+    const auto& t = triangles[static_cast<std::size_t>(refused)];
+    const bool repeats = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
+    throw InvalidMesh(source + ": face " + std::to_string(refused) + " (0-based) " +
+                      (repeats ? "repeats a vertex"
+                               : "makes the mesh non-manifold or flips its orientation"));
+  }
   Mesh mesh(std::move(tri));
   validateMesh(mesh, source);
   return mesh;

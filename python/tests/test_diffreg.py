@@ -231,6 +231,12 @@ def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
         diffreg.deform(V, E, [[0], [2]], None, regularization="nonuniform", weights=[1, 2])
     with pytest.raises(ValueError, match="degenerate"):
         diffreg.deform(np.zeros((4, 3)), E, [[0], [2]], None)
+    # The first face that does not fit is named, with its reason: face 2 runs along the edge 0-2
+    # in the direction face 1 does, before face 3 repeats a vertex.
+    with pytest.raises(ValueError, match="face 2 \\(0-based\\) makes the mesh non-manifold"):
+        diffreg.diffuse_weights(V, np.array([[0, 1, 2], [0, 2, 3], [0, 2, 1], [3, 3, 1]]), [[0]])
+    with pytest.raises(ValueError, match="face 1 \\(0-based\\) repeats a vertex"):
+        diffreg.diffuse_weights(V, np.array([[0, 1, 2], [3, 3, 1], [0, 2, 1]]), [[0]])
     with pytest.raises(ValueError, match="unknown filter|no_such_filter"):
         diffreg.run((V, E), ["no_such_filter"])
     with pytest.raises(ValueError, match="handle"):
