@@ -148,8 +148,8 @@ std::unique_ptr<TriMesh> buildTriangleMesh(const std::vector<Eigen::Vector3d>& p
   for (size_t f = 0; f < triangles.size(); ++f) {
     const auto& t = triangles[f];
     if (!distinct(t) || !tri.add_face(OpenMesh::VertexHandle(t[0]), OpenMesh::VertexHandle(t[1]),
-                      OpenMesh::VertexHandle(t[2]))
-             .is_valid()) {
+                                      OpenMesh::VertexHandle(t[2]))
+                             .is_valid()) {
       refused = static_cast<std::ptrdiff_t>(f);
       return nullptr;
     }

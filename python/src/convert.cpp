@@ -145,9 +145,9 @@ Mesh toMesh(const py::handle& V, const py::handle& E) {
   if (!tri) {  // the first face that does not fit, with its reason
     const auto& t = triangles[static_cast<std::size_t>(refused)];
     const bool repeats = t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
-    throw InvalidMesh(source + ": face " + std::to_string(refused) + " (0-based) " +
-                      (repeats ? "repeats a vertex"
-                               : "makes the mesh non-manifold or flips its orientation"));
+    throw InvalidMesh(
+        source + ": face " + std::to_string(refused) + " (0-based) " +
+        (repeats ? "repeats a vertex" : "makes the mesh non-manifold or flips its orientation"));
   }
   Mesh mesh(std::move(tri));
   validateMesh(mesh, source);
