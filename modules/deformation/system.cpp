@@ -92,19 +92,33 @@ inline int entryIndex(const int* outer, const int* inner, int row, int col) {
   return static_cast<int>(base - inner);
 }
 
+// Adds w B^T B to A's values for a block B of r rows whose columns are the unknowns ids[0, n),
+// stored [column][row] (R > 0: r known at compile time). Each entry sums its rows in order;
+// (i, j) and (j, i) get the same sum, computed once. A's pattern holds every pair of ids.
+template <int R>
+inline void addGram(const int* ids, const double* B, int n, int r_, double w, SparseMatrix& A) {
+  const int r = R > 0 ? R : r_;
+  double* values = A.valuePtr();
+  const int* outer = A.outerIndexPtr();
+  const int* inner = A.innerIndexPtr();
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i <= j; ++i) {
+      double sum = 0.0;
+      for (int row = 0; row < r; ++row) sum += B[i * r + row] * B[j * r + row];
+      values[entryIndex(outer, inner, ids[i], ids[j])] += w * sum;
+      if (i != j) values[entryIndex(outer, inner, ids[j], ids[i])] += w * sum;
+    }
+}
+
 // Adds w_k L_k^T L_k of every element with w_k != 0 to A's values (A's pattern holds every
 // element's unknowns). R rows and U local unknowns per element: known at compile time (> 0) for
-// the common layouts, else `r`, `u` at run time. Each entry sums its rows in order and takes
-// the elements in order, whatever R and U.
+// the common layouts, else `r`, `u` at run time. The elements in order, whatever R and U.
 template <int R, int U>
 void addElementBlocks(const ResidualModel& model, const Eigen::VectorXd& elementWeight, int r_,
                       int u_, SparseMatrix& A) {
   const int r = R > 0 ? R : r_, u = U > 0 ? U : u_;
   const int m = model.discretization().numElements();
   const ResidualModel::Operators L = model.operators();
-  double* values = A.valuePtr();
-  const int* outer = A.outerIndexPtr();
-  const int* inner = A.innerIndexPtr();
   int ids[4 * kMaxBlock];
   double Lk[kMaxBlock * 4 * kMaxBlock];  // [j][row]
   for (int k = 0; k < m; ++k) {
@@ -114,26 +128,17 @@ void addElementBlocks(const ResidualModel& model, const Eigen::VectorXd& element
       ids[j] = model.unknown(k, j);
       for (int row = 0; row < r; ++row) Lk[j * r + row] = L(k, row, j);
     }
-    for (int j = 0; j < u; ++j)
-      for (int i = 0; i < u; ++i) {
-        double sum = 0.0;
-        for (int row = 0; row < r; ++row) sum += Lk[i * r + row] * Lk[j * r + row];
-        values[entryIndex(outer, inner, ids[i], ids[j])] += w * sum;
-      }
+    addGram<R>(ids, Lk, u, r, w, A);
   }
 }
 
 // Adds ell beta_kl c_kl (L_k - L_l)^T (L_k - L_l) of every facet with a nonzero weight to A's
-// values, over the union of its two elements' unknowns (sizes as addElementBlocks). Each entry
-// sums its rows in order; (i, j) and (j, i) get the same sum, computed once.
+// values, over the union of its two elements' unknowns (sizes as addElementBlocks).
 template <int R, int U>
 void addFacetBlocks(const ResidualModel& model, const std::vector<Facet>& facets,
                     const Eigen::VectorXd& facetWeight, int r_, int u_, SparseMatrix& A) {
   const int r = R > 0 ? R : r_, u = U > 0 ? U : u_;
   const ResidualModel::Operators L = model.operators();
-  double* values = A.valuePtr();
-  const int* outer = A.outerIndexPtr();
-  const int* inner = A.innerIndexPtr();
   int ids[8 * kMaxBlock];
   double M[kMaxBlock * 8 * kMaxBlock];  // [unknown][row]
   for (size_t f = 0; f < facets.size(); ++f) {
@@ -155,13 +160,7 @@ void addFacetBlocks(const ResidualModel& model, const std::vector<Facet>& facets
       }
       for (int row = 0; row < r; ++row) M[pos * r + row] -= L(fc.l, row, j);
     }
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i <= j; ++i) {
-        double sum = 0.0;
-        for (int row = 0; row < r; ++row) sum += M[i * r + row] * M[j * r + row];
-        values[entryIndex(outer, inner, ids[i], ids[j])] += w * sum;
-        if (i != j) values[entryIndex(outer, inner, ids[j], ids[i])] += w * sum;
-      }
+    addGram<R>(ids, M, n, r, w, A);
   }
 }
 
