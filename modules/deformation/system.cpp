@@ -303,18 +303,27 @@ void RegularizedSystem::buildPattern(bool couplings) {
   for (int k = 0; k < m; ++k)
     for (int j = 0; j < u; ++j) unknowns[static_cast<size_t>(k) * u + j] = model_.unknown(k, j);
   std::vector<int> outer(static_cast<size_t>(N) + 1, 0), inner, mark(static_cast<size_t>(N), -1);
-  std::vector<int> column;
+  // A column holds at most the unknowns of the elements around its unknown and their facet
+  // neighbours, repeats included.
+  int widest = 0, facets = 0;
+  for (int p = 0; p < N; ++p)
+    widest = std::max(widest, incidenceStart_[p + 1] - incidenceStart_[p]);
+  if (couplings)
+    for (int k = 0; k < m; ++k)
+      facets = std::max(facets, regularizer_.facetEnd(k) - regularizer_.facetBegin(k));
+  std::vector<int> column(static_cast<size_t>(widest) * u * (1 + facets));
   inner.reserve(incidence_.size() * (couplings ? 4 : 2));
   for (int p = 0; p < N; ++p) {
-    column.clear();
+    // Every unknown is written, and kept (the count advanced) only on its first visit for p:
+    // whether an unknown was seen before follows no pattern a branch predictor could learn.
+    int count = 0;
     auto addElement = [&](int k) {
       const int* ids = unknowns.data() + static_cast<size_t>(k) * u;
       for (int j = 0; j < u; ++j) {
         const int q = ids[j];
-        if (mark[q] != p) {
-          mark[q] = p;
-          column.push_back(q);
-        }
+        column[static_cast<size_t>(count)] = q;
+        count += mark[static_cast<size_t>(q)] != p;
+        mark[static_cast<size_t>(q)] = p;
       }
     };
     for (int at = incidenceStart_[p]; at < incidenceStart_[p + 1]; ++at) {
@@ -327,8 +336,8 @@ void RegularizedSystem::buildPattern(bool couplings) {
       for (int g = regularizer_.facetBegin(k); g < regularizer_.facetEnd(k); ++g)
         addElement(regularizer_.neighbour(g));
     }
-    std::sort(column.begin(), column.end());
-    inner.insert(inner.end(), column.begin(), column.end());
+    std::sort(column.begin(), column.begin() + count);
+    inner.insert(inner.end(), column.begin(), column.begin() + count);
     outer[p + 1] = static_cast<int>(inner.size());
   }
   A_ = SparseMatrix(N, N);
