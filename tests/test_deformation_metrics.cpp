@@ -239,6 +239,82 @@ TEST_CASE("a run's last targets, in the mesh's element order, start the relaxed 
   }
 }
 
+TEST_CASE("a run's own per-element fits give the maps its residuals without fitting again",
+          "[deformation][metrics]") {
+  // As above: the bar of each kind and the shuffled strip that the session stores in its own
+  // element order.
+  std::vector<std::pair<std::string, PushedBar>> cases;
+  for (MeshKind kind : kAllKinds) cases.emplace_back(toString(kind), pushedBar(kind, 0.6));
+  {
+    PushedBar strip;
+    const Discretization plain(makeRectangle(4.0, 1.0, 72, 32));
+    std::vector<int> order(static_cast<size_t>(plain.numElements()));
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), std::mt19937(7));
+    strip.disc = std::make_unique<Discretization>(plain.withElementOrder(order));
+    REQUIRE_FALSE(localityElementOrder(*strip.disc).empty());
+    strip.handles = bothEnds(*strip.disc);
+    strip.targets = rows(strip.disc->rest(), strip.handles);
+    for (Eigen::Index i = 0; i < strip.targets.rows(); ++i)
+      if (strip.targets(i, 0) > 2.0) strip.targets(i, 1) += 1.0;
+    cases.emplace_back("shuffled strip", std::move(strip));
+  }
+  for (const auto& [name, b] : cases) {
+    const Discretization& disc = *b.disc;
+    for (Energy energy : {Energy::Arap, Energy::Asap})
+      for (Regularization mode : {Regularization::None, Regularization::Uniform})
+        for (LocalStep step : {LocalStep::Exact, LocalStep::Reference}) {
+          INFO(name << ", " << toString(energy) << ", " << toString(mode) << ", "
+                    << toString(step));
+          DeformationOptions o;
+          o.energy = energy;
+          o.regularization = mode;
+          o.beta = 0.5;
+          o.localStep = step;
+          DeformationSession session(disc, o);
+          session.setHandles(b.handles);
+          session.setTargets(b.targets);
+          const DeformationResult r = session.solve(7, kDefaultTolerance);
+          const ElementTargets e = session.ownResiduals(r.positions);
+          // Own fits: no coupled sweeps (no regularization, or the reference step), and an
+          // iterative energy (a linear one, ASAP on planar meshes, keeps no last shape).
+          const ResidualModel model(disc, energy);
+          const bool own =
+              model.iterative() && (mode == Regularization::None || step == LocalStep::Reference);
+          if (!own) {
+            CHECK(e.size() == 0);
+            continue;
+          }
+          // The same residuals, bit for bit, and so the same maps.
+          const Stacked fitted = model.residuals(r.positions);
+          REQUIRE(e.rows() == fitted.rows());
+          REQUIRE(e.cols() == fitted.cols());
+          CHECK(e == fitted);
+          const ElementMaps a = elementMaps(disc, energy, e);
+          const ElementMaps c = elementMaps(disc, energy, r.positions);
+          CHECK(a.distortion == c.distortion);
+          CHECK(a.smoothness == c.smoothness);
+          // Another shape: none.
+          Eigen::MatrixXd other = r.positions;
+          other(0, 0) += 1e-3;
+          CHECK(session.ownResiduals(other).size() == 0);
+          CHECK(session.ownResiduals(other.leftCols(1)).size() == 0);
+          // Coupled targets after a switch to uniform weights: none until a run, and a run with
+          // the exact step couples them.
+          if (mode == Regularization::None) {
+            session.setRegularization(Regularization::Uniform, 0.5);
+            const DeformationResult coupled = session.solve(3, kDefaultTolerance);
+            CHECK(session.ownResiduals(coupled.positions).size() ==
+                  (step == LocalStep::Exact ? 0 : e.size()));
+          }
+        }
+  }
+  // Residuals of another size are refused with the shapes named.
+  const PushedBar b = pushedBar(MeshKind::Planar, 0.6);
+  const ElementTargets cut = ElementTargets::Zero(2, 2);
+  CHECK_THROWS_AS(elementMaps(*b.disc, Energy::Arap, cut), InvalidParameter);
+}
+
 TEST_CASE("a run that throws leaves no last targets and nothing to continue",
           "[deformation][metrics]") {
   const PushedBar b = pushedBar(MeshKind::Planar, 0.6);

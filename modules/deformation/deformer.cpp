@@ -36,15 +36,30 @@ const RegularizationWeights& DeformationCore::regularizationWeights() const {
   return ordered_ ? meshOrderWeights_ : system_.weights();
 }
 
+ElementTargets DeformationCore::toCallerOrder(const Stacked& blocks) const {
+  const Eigen::Index rows = model_.rows();  // per element
+  ElementTargets out(blocks.rows(), blocks.cols());
+  for (size_t k = 0; k < elementOrder_.size(); ++k)
+    out.middleRows(static_cast<Eigen::Index>(elementOrder_[k]) * rows, rows) =
+        blocks.middleRows(static_cast<Eigen::Index>(k) * rows, rows);
+  return out;
+}
+
 ElementTargets DeformationCore::lastTargets() const {
   if (!resumable_) return {};
   if (!ordered_) return t_;
-  const Eigen::Index rows = model_.rows();  // per element
-  ElementTargets out(t_.rows(), t_.cols());
-  for (size_t k = 0; k < elementOrder_.size(); ++k)
-    out.middleRows(static_cast<Eigen::Index>(elementOrder_[k]) * rows, rows) =
-        t_.middleRows(static_cast<Eigen::Index>(k) * rows, rows);
-  return out;
+  return toCallerOrder(t_);
+}
+
+ElementTargets DeformationCore::ownResiduals(const Eigen::MatrixXd& positions) const {
+  if (!resumable_ || !ownFits_ || positions.rows() != lastX_.rows() ||
+      positions.cols() != lastX_.cols() || positions != lastX_)
+    return {};
+  Stacked e;
+  model_.gradients(positions, e);
+  e -= t_;
+  if (!ordered_) return e;
+  return toCallerOrder(e);
 }
 
 void DeformationCore::setHandles(const std::vector<int>& vertices) {
@@ -394,6 +409,8 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
     lastX_ = X;
     lastE_ = result.energies.back();
     resumable_ = true;
+    // As localStep decides: the exact step sweeps coupled targets, every other fits each alone.
+    ownFits_ = options_.localStep != LocalStep::Exact || !system_.regularizer().coupling();
   }
   result.positions = std::move(X);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
@@ -445,6 +462,9 @@ const RegularizationWeights& DeformationSession::regularizationWeights() const {
   return core_->regularizationWeights();
 }
 ElementTargets DeformationSession::lastTargets() const { return core_->lastTargets(); }
+ElementTargets DeformationSession::ownResiduals(const Eigen::MatrixXd& positions) const {
+  return core_->ownResiduals(positions);
+}
 const SparseMatrix& DeformationSession::systemMatrix() const { return core_->systemMatrix(); }
 SolverStats DeformationSession::stats() const { return core_->stats(); }
 

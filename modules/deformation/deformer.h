@@ -79,6 +79,13 @@ class DeformationSession {
   /// Empty when there is nothing to continue (as resume(): no run yet, a linear energy, or
   /// handles, targets or regularization changed since).
   ElementTargets lastTargets() const;
+  /// The residuals e_k = F_k - t_k at `positions` (n x d) from the last iterative run's targets,
+  /// when `positions` is that run's shape and its targets are every element's own fit (its
+  /// local step fitted each element alone: no facet coupling, or the reference step): then they
+  /// equal ResidualModel::residuals(positions), without fitting the targets again. In the
+  /// mesh's element order, for elementMaps. Empty otherwise (no run, another shape, coupled
+  /// targets, or a linear energy).
+  ElementTargets ownResiduals(const Eigen::MatrixXd& positions) const;
   /// beta_k and beta_kl of the current regularization.
   const RegularizationWeights& regularizationWeights() const;
   /// The system matrix A of the energy (n x n separable, d n x d n coupled), for tests.

@@ -60,6 +60,18 @@ ElementMaps elementMaps(const Discretization& disc, Energy energy,
   return {model.distortion(e), elementSmoothness(disc, model.facetDifference(e))};
 }
 
+ElementMaps elementMaps(const Discretization& disc, Energy energy,
+                        const ElementTargets& residuals) {
+  const ResidualModel model(disc, energy);
+  const Eigen::Index rows = static_cast<Eigen::Index>(disc.numElements()) * model.rows();
+  if (residuals.rows() != rows || residuals.cols() != model.columns())
+    throw InvalidParameter("metrics: residuals of shape " + std::to_string(residuals.rows()) +
+                           " x " + std::to_string(residuals.cols()) + " for " +
+                           std::to_string(disc.numElements()) + " elements (expected " +
+                           std::to_string(rows) + " x " + std::to_string(model.columns()) + ")");
+  return {model.distortion(residuals), elementSmoothness(disc, model.facetDifference(residuals))};
+}
+
 namespace {
 
 // Whether element k is inverted at X (countInverted), with fixed-size D x D matrices.

@@ -43,6 +43,7 @@ class DeformationCore {
   /// In the order of the caller's discretization's elements.
   const RegularizationWeights& regularizationWeights() const;
   ElementTargets lastTargets() const;
+  ElementTargets ownResiduals(const Eigen::MatrixXd& positions) const;
   const SparseMatrix& systemMatrix() const { return system_.matrix(); }
   SolverStats stats() const;
 
@@ -102,6 +103,10 @@ class DeformationCore {
   Eigen::MatrixXd lastX_;
   double lastE_ = 0.0;
   bool resumable_ = false;
+  // The last run's targets t_ are each element's own fit (no coupled sweeps): ownResiduals().
+  bool ownFits_ = false;
+  // Stacked per-element blocks in the caller's element order (elementOrder_).
+  ElementTargets toCallerOrder(const Stacked& blocks) const;
   // The last L-BFGS step met the tolerance at the iteration cap, before the plain step that
   // decides stationarity: resume() takes that step first, so that a run continued in batches
   // takes the same steps as one run.

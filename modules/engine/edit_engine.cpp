@@ -586,7 +586,13 @@ void EditEngine::computeMaps(const EditState& want, const Eigen::MatrixXd& posit
   if (p.metrics)
     metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference, runEnergy,
                                  runTargets.size() > 0 ? &runTargets : nullptr);
-  ElementMaps maps = elementMaps(*disc_, p.energy, X);
+  // The run's own per-element fits at X serve the maps, when it has them (no coupled targets).
+  const ElementTargets residuals =
+      S.deform.session && S.deform.session->options().energy == p.energy
+          ? S.deform.session->ownResiduals(X)
+          : ElementTargets();
+  ElementMaps maps = residuals.size() > 0 ? elementMaps(*disc_, p.energy, residuals)
+                                          : elementMaps(*disc_, p.energy, X);
   metrics_ = metrics;
   distortion_ = std::move(maps.distortion);
   smoothness_ = std::move(maps.smoothness);
