@@ -329,6 +329,47 @@ TEST_CASE("C t added colour by colour in parallel equals the serial sum over the
     }
 }
 
+TEST_CASE("the system's pattern is that of its element and facet blocks",
+          "[deformation][system]") {
+  // Meshes of more unknowns than one thread's share of the columns (kPatternGrain = 4096), so
+  // that with two or more threads the columns are built in parts; with their elements scrambled,
+  // each part reads elements from all over the mesh. Every layout: ARAP's one unknown per vertex,
+  // ASAP's coupled three on surfaces, with and without the facet couplings.
+  std::vector<std::unique_ptr<Discretization>> meshes;
+  meshes.push_back(std::make_unique<Discretization>(makeSphere(1.0, 96, 48)));
+  meshes.push_back(std::make_unique<Discretization>(makeRectangle(4.0, 1.0, 150, 40)));
+  meshes.push_back(std::make_unique<Discretization>(makeTetBox(4.0, 1.0, 1.0, 32, 12, 12)));
+  meshes.push_back(std::make_unique<Discretization>(scrambledCopy(*meshes[0], 11)));
+  for (const auto& disc : meshes)
+    for (Energy energy : {Energy::Arap, Energy::Asap})
+      for (bool couplings : {false, true}) {
+        INFO(toString(disc->kind()) << " " << toString(energy) << " couplings " << couplings);
+        const ResidualModel model(*disc, energy);
+        REQUIRE(model.numUnknowns() > 4096);
+        RegularizedSystem system(model, defaultSolverBackend(), couplings);
+        const SparseMatrix& A = system.matrix();
+        // The reference: every pair of unknowns of one element, or of two across a facet.
+        std::vector<Eigen::Triplet<double>> pairs;
+        const auto addPairs = [&](int k, int l) {
+          for (int i = 0; i < model.localSize(); ++i)
+            for (int j = 0; j < model.localSize(); ++j) {
+              pairs.emplace_back(model.unknown(k, i), model.unknown(l, j), 1.0);
+              pairs.emplace_back(model.unknown(l, j), model.unknown(k, i), 1.0);
+            }
+        };
+        for (int k = 0; k < disc->numElements(); ++k) addPairs(k, k);
+        if (couplings)
+          for (const Facet& f : disc->facets()) addPairs(f.k, f.l);
+        SparseMatrix expected(model.numUnknowns(), model.numUnknowns());
+        expected.setFromTriplets(pairs.begin(), pairs.end());
+        REQUIRE(A.nonZeros() == expected.nonZeros());
+        CHECK(std::equal(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1,
+                         expected.outerIndexPtr()));
+        CHECK(std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(),
+                         expected.innerIndexPtr()));
+      }
+}
+
 TEST_CASE("the ARAP energy never increases across iterations when beta = 0",
           "[deformation][session]") {
   for (MeshKind kind : kAllKinds) {
