@@ -241,23 +241,24 @@ TEST_CASE("a run's last targets, in the mesh's element order, start the relaxed 
 
 TEST_CASE("a run's own per-element fits give the maps its residuals without fitting again",
           "[deformation][metrics]") {
-  // As above: the bar of each kind and the shuffled strip that the session stores in its own
-  // element order.
+  // As above: the bar of each kind, and a planar strip and a sphere whose elements are shuffled,
+  // which the session stores in its own element order.
   std::vector<std::pair<std::string, PushedBar>> cases;
   for (MeshKind kind : kAllKinds) cases.emplace_back(toString(kind), pushedBar(kind, 0.6));
-  {
-    PushedBar strip;
-    const Discretization plain(makeRectangle(4.0, 1.0, 72, 32));
+  for (const Mesh& mesh : {makeRectangle(4.0, 1.0, 72, 32), makeSphere(1.0, 72, 36)}) {
+    PushedBar shuffled;
+    const Discretization plain(mesh);
     std::vector<int> order(static_cast<size_t>(plain.numElements()));
     std::iota(order.begin(), order.end(), 0);
     std::shuffle(order.begin(), order.end(), std::mt19937(7));
-    strip.disc = std::make_unique<Discretization>(plain.withElementOrder(order));
-    REQUIRE_FALSE(localityElementOrder(*strip.disc).empty());
-    strip.handles = bothEnds(*strip.disc);
-    strip.targets = rows(strip.disc->rest(), strip.handles);
-    for (Eigen::Index i = 0; i < strip.targets.rows(); ++i)
-      if (strip.targets(i, 0) > 2.0) strip.targets(i, 1) += 1.0;
-    cases.emplace_back("shuffled strip", std::move(strip));
+    shuffled.disc = std::make_unique<Discretization>(plain.withElementOrder(order));
+    REQUIRE_FALSE(localityElementOrder(*shuffled.disc).empty());
+    shuffled.handles = bothEnds(*shuffled.disc);
+    shuffled.targets = rows(shuffled.disc->rest(), shuffled.handles);
+    const double middle = shuffled.disc->rest().col(0).mean();
+    for (Eigen::Index i = 0; i < shuffled.targets.rows(); ++i)
+      if (shuffled.targets(i, 0) > middle) shuffled.targets(i, 1) += 0.5;
+    cases.emplace_back(std::string("shuffled ") + toString(plain.kind()), std::move(shuffled));
   }
   for (const auto& [name, b] : cases) {
     const Discretization& disc = *b.disc;
@@ -286,11 +287,12 @@ TEST_CASE("a run's own per-element fits give the maps its residuals without fitt
             continue;
           }
           // The same residuals, bit for bit, and so the same maps.
-          const Stacked fitted = model.residuals(r.positions);
-          REQUIRE(e.rows() == fitted.rows());
-          REQUIRE(e.cols() == fitted.cols());
-          CHECK(e == fitted);
-          const ElementMaps a = elementMaps(disc, energy, e);
+          const auto same = [&](const Eigen::MatrixXd& X, const ElementTargets& own) {
+            const Stacked fitted = model.residuals(X);
+            return own.rows() == fitted.rows() && own.cols() == fitted.cols() && own == fitted;
+          };
+          CHECK(same(r.positions, e));
+          const ElementMaps a = elementMapsFromResiduals(disc, energy, e);
           const ElementMaps c = elementMaps(disc, energy, r.positions);
           CHECK(a.distortion == c.distortion);
           CHECK(a.smoothness == c.smoothness);
@@ -299,10 +301,29 @@ TEST_CASE("a run's own per-element fits give the maps its residuals without fitt
           other(0, 0) += 1e-3;
           CHECK(session.ownResiduals(other).size() == 0);
           CHECK(session.ownResiduals(other.leftCols(1)).size() == 0);
+          // Continued, started from a shape, stopped by the time budget: the shape each ends at.
+          const DeformationResult resumed = session.resume(3, kDefaultTolerance);
+          CHECK(same(resumed.positions, session.ownResiduals(resumed.positions)));
+          const DeformationResult from = session.solveFrom(r.positions, 3, kDefaultTolerance);
+          CHECK(same(from.positions, session.ownResiduals(from.positions)));
+          session.setTimeBudget(1e-9);
+          const DeformationResult cut = session.solve(1000, 0.0);
+          CHECK(cut.iterations < 1000);
+          CHECK(same(cut.positions, session.ownResiduals(cut.positions)));
+          session.setTimeBudget(0.0);
+          // New targets: none for the old shape until a run.
+          Eigen::MatrixXd moved = b.targets;
+          moved(0, 1) += 0.05;
+          session.setTargets(moved);
+          CHECK(session.ownResiduals(cut.positions).size() == 0);
+          session.setTargets(b.targets);
+          const DeformationResult again = session.solve(7, kDefaultTolerance);
+          CHECK(same(again.positions, session.ownResiduals(again.positions)));
           // Coupled targets after a switch to uniform weights: none until a run, and a run with
           // the exact step couples them.
           if (mode == Regularization::None) {
             session.setRegularization(Regularization::Uniform, 0.5);
+            CHECK(session.ownResiduals(again.positions).size() == 0);
             const DeformationResult coupled = session.solve(3, kDefaultTolerance);
             CHECK(session.ownResiduals(coupled.positions).size() ==
                   (step == LocalStep::Exact ? 0 : e.size()));
@@ -312,7 +333,7 @@ TEST_CASE("a run's own per-element fits give the maps its residuals without fitt
   // Residuals of another size are refused with the shapes named.
   const PushedBar b = pushedBar(MeshKind::Planar, 0.6);
   const ElementTargets cut = ElementTargets::Zero(2, 2);
-  CHECK_THROWS_AS(elementMaps(*b.disc, Energy::Arap, cut), InvalidParameter);
+  CHECK_THROWS_AS(elementMapsFromResiduals(*b.disc, Energy::Arap, cut), InvalidParameter);
 }
 
 TEST_CASE("a run that throws leaves no last targets and nothing to continue",

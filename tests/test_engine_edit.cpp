@@ -2,8 +2,9 @@
 // edit costs what the paper's Fig. 5 says and no more, invalid states are refused without a
 // trace, every mesh kind deforms, and the one-shot uses give what the sessions below it give.
 #include <diffreg/core/error.h>
-#include <diffreg/mesh/io.h>
+#include <diffreg/deformation/metrics.h>
 #include <diffreg/engine/edit_engine.h>
+#include <diffreg/mesh/io.h>
 
 #include <catch2/catch.hpp>
 
@@ -379,6 +380,30 @@ TEST_CASE("edit engine: one-shot settings keep an unregularized system small", "
   CHECK(interactive.updateOrThrow().deformationWork == "numeric");
   CHECK(once.updateOrThrow().deformationWork == "analysis");
   CHECK((interactive.positions() - once.positions()).cwiseAbs().maxCoeff() < 1e-9);
+}
+
+TEST_CASE("edit engine: the maps of a deformation are those of its shape", "[engine]") {
+  // Without coupled targets the maps take the run's own fits (DeformationSession::ownResiduals);
+  // with them they fit every element at the shape. Either way, the maps of the shape.
+  const Mesh bar = shipped("bar.obj");
+  for (bool interactive : {true, false})
+    for (Regularization mode : {Regularization::None, Regularization::Uniform}) {
+      INFO("interactive " << interactive << ", " << toString(mode));
+      EngineSettings settings;
+      settings.interactive = interactive;
+      EditEngine e(bar, settings);
+      EditParams p;
+      p.scheme = WeightScheme::Given;
+      p.regularization = mode;
+      p.iterations = 4;
+      e.setEdit(barHandles(bar, 1.0), p);
+      e.updateOrThrow();
+      const ElementMaps expected = elementMaps(e.discretization(), p.energy,
+                                               e.positions().leftCols(e.discretization().dim()));
+      CHECK(e.distortion() == expected.distortion);
+      CHECK(e.smoothness() == expected.smoothness);
+      CHECK(e.distortion().maxCoeff() > 0.0);
+    }
 }
 
 TEST_CASE("edit engine: updateOrThrow rethrows the failure's own exception", "[engine]") {

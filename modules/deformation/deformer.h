@@ -83,8 +83,8 @@ class DeformationSession {
   /// when `positions` is that run's shape and its targets are every element's own fit (its
   /// local step fitted each element alone: no facet coupling, or the reference step): then they
   /// equal ResidualModel::residuals(positions), without fitting the targets again. In the
-  /// mesh's element order, for elementMaps. Empty otherwise (no run, another shape, coupled
-  /// targets, or a linear energy).
+  /// mesh's element order, for elementMapsFromResiduals. Empty otherwise (no run, another shape,
+  /// coupled targets, or a linear energy).
   ElementTargets ownResiduals(const Eigen::MatrixXd& positions) const;
   /// beta_k and beta_kl of the current regularization.
   const RegularizationWeights& regularizationWeights() const;

@@ -60,8 +60,8 @@ ElementMaps elementMaps(const Discretization& disc, Energy energy,
   return {model.distortion(e), elementSmoothness(disc, model.facetDifference(e))};
 }
 
-ElementMaps elementMaps(const Discretization& disc, Energy energy,
-                        const ElementTargets& residuals) {
+ElementMaps elementMapsFromResiduals(const Discretization& disc, Energy energy,
+                                     const ElementTargets& residuals) {
   const ResidualModel model(disc, energy);
   const Eigen::Index rows = static_cast<Eigen::Index>(disc.numElements()) * model.rows();
   if (residuals.rows() != rows || residuals.cols() != model.columns())

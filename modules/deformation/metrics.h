@@ -32,7 +32,8 @@ ElementMaps elementMaps(const Discretization& disc, Energy energy,
 /// The same maps from a shape's residuals (ResidualModel::residuals: element k's block in rows
 /// k r to k r + r - 1, r = ResidualModel::rows()), e.g. DeformationSession::ownResiduals.
 /// \throw InvalidParameter for residuals of another shape than the discretization's.
-ElementMaps elementMaps(const Discretization& disc, Energy energy, const ElementTargets& residuals);
+ElementMaps elementMapsFromResiduals(const Discretization& disc, Energy energy,
+                                     const ElementTargets& residuals);
 
 /// Elements with det F_k <= 0 (planar, tets). Surfaces: deformed normal . (R_k n_k) <= 0 with
 /// R_k the closest rotation to F_k; a triangle cannot invert within its own plane, so on

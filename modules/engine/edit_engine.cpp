@@ -591,7 +591,7 @@ void EditEngine::computeMaps(const EditState& want, const Eigen::MatrixXd& posit
       S.deform.session && S.deform.session->options().energy == p.energy
           ? S.deform.session->ownResiduals(X)
           : ElementTargets();
-  ElementMaps maps = residuals.size() > 0 ? elementMaps(*disc_, p.energy, residuals)
+  ElementMaps maps = residuals.size() > 0 ? elementMapsFromResiduals(*disc_, p.energy, residuals)
                                           : elementMaps(*disc_, p.energy, X);
   metrics_ = metrics;
   distortion_ = std::move(maps.distortion);
