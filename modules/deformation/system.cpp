@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -20,8 +21,6 @@ constexpr int kColourGrain = 256;
 // groups per colour on average for which they are used instead of single elements.
 constexpr int kScatterGroup = 256;
 constexpr int kGroupsPerColour = 4;
-// Columns of the pattern per thread at least (below, one thread builds them all).
-constexpr int kPatternGrain = 4096;
 constexpr int kMaxBlock = 9;  // rows() x columns() of any energy: 3 x 3, 2 x 2, 9 x 1 or 4 x 1
 
 // Adds the shares L_k^T tau_k of the elements `ids[0..count)` (or, without ids, the elements
@@ -317,21 +316,24 @@ void RegularizedSystem::buildPattern(bool couplings) {
   // marks, its entries appended to its own part; outer holds the counts within each part first.
   const int threads = parallel::threads();
   const int grain = std::max(kPatternGrain, (N + threads - 1) / threads);
-  // The buffers are allocated here, by the calling thread (a part outgrows its reserve only in
-  // the coupled layouts): memory a worker allocates stays in its own glibc arena, and a
-  // million-vertex editor session peaked 33 MiB higher.
+  // The buffers are allocated here, by the calling thread, and filled by the chunk's: memory a
+  // worker allocates stays in its own glibc arena (a million-vertex editor session peaked
+  // 33 MiB higher). A part's reserve: a column holds about 7 vertices' unknowns without the
+  // couplings, 13 with them, against about 6 elements around its vertex.
   const int chunks = parallel::numChunks(N, grain);
-  std::vector<std::vector<int>> parts(static_cast<size_t>(chunks)), marks(parts.size()),
-      columns(parts.size());
+  std::vector<std::vector<int>> parts(static_cast<size_t>(chunks)), columns(parts.size());
+  std::vector<std::unique_ptr<int[]>> marks(parts.size());
+  const size_t perIncidence = static_cast<size_t>(model_.dofsPerVertex()) * (couplings ? 4 : 2);
   for (int c = 0; c < chunks; ++c) {
     const int begin = c * grain, end = std::min(N, begin + grain);
     parts[static_cast<size_t>(c)].reserve(
-        static_cast<size_t>(incidenceStart_[end] - incidenceStart_[begin]) * (couplings ? 4 : 2));
-    marks[static_cast<size_t>(c)].assign(static_cast<size_t>(N), -1);
+        static_cast<size_t>(incidenceStart_[end] - incidenceStart_[begin]) * perIncidence);
+    marks[static_cast<size_t>(c)].reset(new int[static_cast<size_t>(N)]);
     columns[static_cast<size_t>(c)].resize(static_cast<size_t>(widest) * u * (1 + facets));
   }
   parallel::forChunks(N, grain, [&](int chunk, int begin, int end) {
-    std::vector<int>& mark = marks[static_cast<size_t>(chunk)];
+    int* const mark = marks[static_cast<size_t>(chunk)].get();
+    std::fill(mark, mark + N, -1);
     std::vector<int>& column = columns[static_cast<size_t>(chunk)];
     std::vector<int>& inner = parts[static_cast<size_t>(chunk)];
     for (int p = begin; p < end; ++p) {

@@ -27,6 +27,10 @@
 
 namespace diffreg {
 
+/// Columns of the sparsity pattern each thread builds at least: a pattern of fewer unknowns
+/// than twice this is built by one thread.
+constexpr int kPatternGrain = 4096;
+
 class RegularizedSystem {
  public:
   /// `reserveCouplings`: keep the regularizer's facet couplings in the sparsity pattern even
