@@ -4,6 +4,7 @@
 #include <diffreg/deformation/metrics.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/deformation/rotation.h>
 #include <diffreg/discretization/element_order.h>
 
 #include <catch2/catch.hpp>
@@ -12,6 +13,8 @@
 #include <numeric>
 #include <random>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 using namespace diffreg;
 using namespace diffreg::testing;
@@ -120,6 +123,64 @@ TEST_CASE("metrics of the rest shape and of simple motions", "[deformation][metr
     CHECK(s.dDev == Approx(0.0).margin(1e-9));
     CHECK(facetSmoothness(*disc, Energy::Dirichlet, stretched).cwiseAbs().maxCoeff() < 1e-20);
   }
+}
+
+TEST_CASE("inverted surface triangles: the closed form counts what the SVD's rotation does",
+          "[deformation][metrics]") {
+  // METHOD.md: a surface triangle is inverted when its deformed normal points against R_k n_k,
+  // R_k the closest rotation to F_k. countInverted takes R_k n_k in closed form (q1 x q2 of the
+  // tangent polar factor) and the SVD only for nearly collapsed triangles; here every element
+  // is also decided by the SVD, on shapes that reach both paths.
+  const auto disc = makeBar(MeshKind::Surface);
+  const Eigen::MatrixXi& el = disc->elements();
+  const auto bySvd = [&](const Eigen::MatrixXd& X) {
+    int count = 0;
+    for (int k = 0; k < disc->numElements(); ++k) {
+      const Eigen::MatrixXd G = disc->gradient(k);
+      Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
+      for (int i = 0; i < 3; ++i) F += X.row(el(k, i)).transpose() * G.row(i);
+      Eigen::Vector3d sigma;
+      const Eigen::Vector3d Rn = closestRotation<3>(F, sigma) * disc->normals().row(k).transpose();
+      const Eigen::Vector3d a = (X.row(el(k, 1)) - X.row(el(k, 0))).transpose();
+      const Eigen::Vector3d b = (X.row(el(k, 2)) - X.row(el(k, 0))).transpose();
+      count += a.cross(b).dot(Rn) <= 0.0;
+    }
+    return count;
+  };
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const Eigen::MatrixXd& rest = disc->rest();
+  std::vector<std::pair<std::string, Eigen::MatrixXd>> shapes;
+  shapes.emplace_back("rest", rest);
+  Eigen::MatrixXd mirrored = rest;
+  mirrored.col(0) *= -1.0;
+  shapes.emplace_back("mirrored", mirrored);
+  for (double amount : {0.05, 0.3, 2.0}) {
+    Eigen::MatrixXd X = rest;
+    for (Eigen::Index i = 0; i < X.size(); ++i) X(i) += amount * noise(rng);
+    shapes.emplace_back("noise " + std::to_string(amount), X);
+  }
+  // Collapsed triangles: every vertex of a band onto one point, onto one line, and a few
+  // triangles pressed flat to within rounding.
+  Eigen::MatrixXd collapsed = rest, flat = rest, nearly = rest;
+  for (Eigen::Index v = 0; v < rest.rows(); ++v) {
+    if (std::abs(rest(v, 0) - 2.0) < 0.3) collapsed.row(v) = Eigen::RowVector3d(2.0, 0.0, 0.0);
+    if (std::abs(rest(v, 0) - 1.0) < 0.3) flat.row(v) << rest(v, 0), 0.0, 0.0;
+  }
+  for (int k = 0; k < disc->numElements(); k += 7)
+    nearly.row(el(k, 2)) = 0.5 * (nearly.row(el(k, 0)) + nearly.row(el(k, 1))) +
+                           1e-12 * Eigen::RowVector3d(noise(rng), noise(rng), noise(rng));
+  shapes.emplace_back("collapsed", collapsed);
+  shapes.emplace_back("flat", flat);
+  shapes.emplace_back("nearly flat", nearly);
+  int collapsedCount = 0;
+  for (const auto& [name, X] : shapes) {
+    INFO(name);
+    const int count = countInverted(*disc, X);
+    CHECK(count == bySvd(X));
+    if (name == "collapsed") collapsedCount = count;
+  }
+  CHECK(collapsedCount > 0);  // the test reaches the SVD path and counts there
 }
 
 TEST_CASE("D_ave and D_dev are area-weighted; smoothness per element is the max over its facets",

@@ -89,8 +89,19 @@ bool inverted(const Discretization& disc, const Eigen::MatrixXd& X, int k) {
     return F.partialPivLu().determinant() <= 0.0;
   } else {
     if (disc.kind() != MeshKind::Surface) return F.partialPivLu().determinant() <= 0.0;
-    Eigen::Vector3d sigma;
-    const Eigen::Vector3d Rn = closestRotation<3>(F, sigma) * disc.normals().row(k).transpose();
+    // F n = 0, so R_k = [Q, q1 x q2] [E, n]^T with E the rest tangent frame and Q the polar
+    // factor of F E (the surface fit's closed form): R_k n = q1 x q2. Nearly collapsed
+    // triangles, where that form declines, take the SVD.
+    const Eigen::Vector3d n = disc.normals().row(k).transpose();
+    Matrix32 Q;
+    double trace = 0.0;
+    Eigen::Vector3d Rn;
+    if (tangentPolar(F * tangentFrame(n), Q, trace)) {
+      Rn = Q.col(0).cross(Q.col(1));
+    } else {
+      Eigen::Vector3d sigma;
+      Rn = closestRotation<3>(F, sigma) * n;
+    }
     const Eigen::Vector3d a = (X.row(el(k, 1)) - X.row(el(k, 0))).transpose();
     const Eigen::Vector3d b = (X.row(el(k, 2)) - X.row(el(k, 0))).transpose();
     return a.cross(b).dot(Rn) <= 0.0;
