@@ -207,6 +207,23 @@ TEST_CASE("D_ave and D_dev are area-weighted; smoothness per element is the max 
   CHECK(perElement.maxCoeff() == Approx(S.maxCoeff()));
   CHECK_THROWS_AS(elementSmoothness(*disc, Eigen::VectorXd::Zero(2)), InvalidParameter);
   CHECK_THROWS_AS(measureDeformation(*disc, Energy::Arap, X.leftCols(1), none), InvalidParameter);
+  // A caller's D_k (its maps of these positions) gives the same metrics; a wrong count is refused.
+  const ElementMaps maps = elementMaps(*disc, Energy::Arap, X);
+  const DeformationMetrics own = measureDeformation(*disc, Energy::Arap, X, none);
+  const DeformationMetrics given =
+      measureDeformation(*disc, Energy::Arap, X, none, nullptr, nullptr, nullptr, &maps.distortion);
+  CHECK(given.dMax == own.dMax);
+  CHECK(given.dAve == own.dAve);
+  CHECK(given.dDev == own.dDev);
+  CHECK(given.energy == own.energy);
+  const Eigen::VectorXd doubled = 2.0 * maps.distortion;
+  CHECK(
+      measureDeformation(*disc, Energy::Arap, X, none, nullptr, nullptr, nullptr, &doubled).dMax ==
+      2.0 * own.dMax);
+  const Eigen::VectorXd shorter = maps.distortion.head(3);
+  CHECK_THROWS_AS(
+      measureDeformation(*disc, Energy::Arap, X, none, nullptr, nullptr, nullptr, &shorter),
+      InvalidParameter);
   CHECK_THROWS_AS(rmsDistance(X, X.topRows(3)), InvalidParameter);
 }
 

@@ -137,13 +137,21 @@ double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd& positions,
                                       const RegularizationWeights& weights,
-                                      const Eigen::MatrixXd* reference,
-                                      const double* runEnergy,
-                                      const ElementTargets* startTargets) {
+                                      const Eigen::MatrixXd* reference, const double* runEnergy,
+                                      const ElementTargets* startTargets,
+                                      const Eigen::VectorXd* distortion) {
   checkPositions(disc, positions);
+  if (distortion && distortion->size() != disc.numElements())
+    throw InvalidParameter("metrics: " + std::to_string(distortion->size()) +
+                           " distortion values for " + std::to_string(disc.numElements()) +
+                           " elements");
   const ResidualModel model(disc, energy);
-  const Stacked e = model.residuals(positions);
-  const Eigen::VectorXd D = model.distortion(e);
+  Eigen::VectorXd computed;
+  if (!distortion) {
+    computed = model.distortion(model.residuals(positions));
+    distortion = &computed;
+  }
+  const Eigen::VectorXd& D = *distortion;
   const Eigen::VectorXd& a = disc.measures();
   DeformationMetrics m;
   m.dMax = D.maxCoeff();

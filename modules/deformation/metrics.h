@@ -65,12 +65,15 @@ struct DeformationMetrics {
 /// `startTargets`, when given, are targets at these positions (DeformationSession::lastTargets
 /// of the run that ended there): the relaxation starts from them when their total energy is
 /// lower than that of the per-element fit, and then takes a step or two instead of many;
-/// ignored with `runEnergy`. \throw InvalidParameter when `startTargets` is not (m d) x d.
+/// ignored with `runEnergy`. `distortion`, when given, is D_k of these positions (the
+/// ElementMaps of them, which the callers also write): not computed a second time.
+/// \throw InvalidParameter when `startTargets` is not (m d) x d or `distortion` has not m values.
 DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd& positions,
                                       const RegularizationWeights& weights,
                                       const Eigen::MatrixXd* reference = nullptr,
                                       const double* runEnergy = nullptr,
-                                      const ElementTargets* startTargets = nullptr);
+                                      const ElementTargets* startTargets = nullptr,
+                                      const Eigen::VectorXd* distortion = nullptr);
 
 }  // namespace diffreg

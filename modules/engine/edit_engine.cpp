@@ -583,16 +583,17 @@ void EditEngine::computeMaps(const EditState& want, const Eigen::MatrixXd& posit
   // A converged deformation's targets at X are settled already: the relaxation starts there.
   ElementTargets runTargets;
   if (p.metrics && !runEnergy && S.deform.session) runTargets = S.deform.session->lastTargets();
-  if (p.metrics)
-    metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference, runEnergy,
-                                 runTargets.size() > 0 ? &runTargets : nullptr);
-  // The run's own per-element fits at X serve the maps, when it has them (no coupled targets).
+  // The run's own per-element fits at X serve the maps, when it has them (no coupled targets);
+  // the maps' distortion serves the metrics.
   const ElementTargets residuals =
       S.deform.session && S.deform.session->options().energy == p.energy
           ? S.deform.session->ownResiduals(X)
           : ElementTargets();
   ElementMaps maps = residuals.size() > 0 ? elementMapsFromResiduals(*disc_, p.energy, residuals)
                                           : elementMaps(*disc_, p.energy, X);
+  if (p.metrics)
+    metrics = measureDeformation(*disc_, p.energy, X, regWeights, reference, runEnergy,
+                                 runTargets.size() > 0 ? &runTargets : nullptr, &maps.distortion);
   metrics_ = metrics;
   distortion_ = std::move(maps.distortion);
   smoothness_ = std::move(maps.smoothness);

@@ -14,11 +14,12 @@ Eigen::MatrixXd currentPositions(const Document& doc, const Discretization& disc
   return doc.mesh.positions().leftCols(disc.dim());
 }
 
-void writeElementMaps(Document& doc, const Discretization& disc, Energy energy,
-                      const Eigen::MatrixXd& positions) {
-  const ElementMaps maps = elementMaps(disc, energy, positions);
+ElementMaps writeElementMaps(Document& doc, const Discretization& disc, Energy energy,
+                             const Eigen::MatrixXd& positions) {
+  ElementMaps maps = elementMaps(disc, energy, positions);
   doc.mesh.setElementScalar(prop::distortion, maps.distortion);
   doc.mesh.setElementScalar(prop::smoothness, maps.smoothness);
+  return maps;
 }
 
 }  // namespace diffreg

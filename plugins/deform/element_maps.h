@@ -3,6 +3,7 @@
 #pragma once
 
 #include <diffreg/deformation/energy.h>
+#include <diffreg/deformation/metrics.h>
 #include <diffreg/deformation/residual_model.h>
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/pipeline/document.h>
@@ -19,8 +20,8 @@ Eigen::MatrixXd toMeshPositions(const Document& doc, const Eigen::MatrixXd& posi
 Eigen::MatrixXd currentPositions(const Document& doc, const Discretization& disc);
 
 /// Writes diffreg:distortion (D_k) and diffreg:smoothness (largest ||e_k - e_l||^2 over the
-/// element's facets) for `positions` (n x d) under `energy`.
-void writeElementMaps(Document& doc, const Discretization& disc, Energy energy,
-                      const Eigen::MatrixXd& positions);
+/// element's facets) for `positions` (n x d) under `energy`, and returns them.
+ElementMaps writeElementMaps(Document& doc, const Discretization& disc, Energy energy,
+                             const Eigen::MatrixXd& positions);
 
 }  // namespace diffreg

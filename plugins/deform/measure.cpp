@@ -102,9 +102,10 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
     referenceText = "unregularized solve";
   }
 
-  const DeformationMetrics m = measureDeformation(disc, energy, positions, weights,
-                                                  reference ? &*reference : nullptr);
-  writeElementMaps(doc, disc, energy, positions);
+  const ElementMaps maps = writeElementMaps(doc, disc, energy, positions);
+  const DeformationMetrics m =
+      measureDeformation(disc, energy, positions, weights, reference ? &*reference : nullptr,
+                         nullptr, nullptr, &maps.distortion);
   out.data = {{"energy", toString(energy)},
               {"metrics",
                {{"D_max", m.dMax},

@@ -105,13 +105,15 @@ py::dict measureArrays(const py::object& V, const py::object& E, const py::objec
     start = toMatrix(startTargets, "start_targets", disc.numElements() * d, d);
   }
   DeformationMetrics metrics;
+  Eigen::VectorXd distortion;
   {
     py::gil_scoped_release release;
     const RegularizationWeights rw =
         makeRegularizationWeights(disc, mode, params.getFloat("beta"), w);
+    distortion = elementDistortion(disc, energy, positions.leftCols(disc.dim()));
     metrics = measureDeformation(disc, energy, positions.leftCols(disc.dim()), rw,
                                  reference.is_none() ? nullptr : &ref, nullptr,
-                                 startTargets.is_none() ? nullptr : &start);
+                                 startTargets.is_none() ? nullptr : &start, &distortion);
   }
   py::dict out;
   out["D_max"] = metrics.dMax;
@@ -120,7 +122,7 @@ py::dict measureArrays(const py::object& V, const py::object& E, const py::objec
   out["dist"] = metrics.dist ? py::object(py::float_(*metrics.dist)) : py::object(py::none());
   out["inverted"] = metrics.inverted;
   out["energy"] = metrics.energy;
-  out["distortion"] = fromVector(elementDistortion(disc, energy, positions.leftCols(disc.dim())));
+  out["distortion"] = fromVector(distortion);
   return out;
 }
 
