@@ -100,6 +100,23 @@ TEST_CASE("positions, elements and referenced vertices", "[mesh]") {
   }
 }
 
+TEST_CASE("points: the positions without a copy, for every kind", "[mesh]") {
+  const Eigen::Vector4d dz(0.0, 0.5, -0.25, 1.0);
+  for (Mesh mesh : {Mesh(square(2.0)), Mesh(square(0.0, dz)), Mesh(twoTets())}) {
+    INFO(toString(mesh.kind()));
+    const Mesh::PointRows p = mesh.points();
+    REQUIRE(p.rows() == mesh.numVertices());
+    CHECK(Eigen::MatrixXd(p) == mesh.positions());
+    // A view of the mesh's own storage: it follows new positions.
+    Eigen::MatrixXd moved = mesh.positions();
+    moved.col(0).array() += 3.0;
+    mesh.setPositions(moved);
+    CHECK(Eigen::MatrixXd(p) == moved);
+  }
+  CHECK(Mesh().points().rows() == 0);
+  CHECK(Mesh(TetMesh{}).points().rows() == 0);
+}
+
 TEST_CASE("scalar properties live on the OpenMesh mesh and survive copies", "[mesh]") {
   Mesh mesh(square(0.0));
   CHECK_FALSE(mesh.hasVertexScalar(prop::weight));

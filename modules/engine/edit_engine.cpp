@@ -221,6 +221,7 @@ EditEngine::EditEngine(Mesh mesh, std::shared_ptr<const Discretization> disc,
 
 void EditEngine::initialize() {
   positions_ = mesh_.positions();
+  restCenter_ = 0.5 * (positions_.colwise().minCoeff() + positions_.colwise().maxCoeff());
   weights_ = Eigen::VectorXd::Zero(disc_->numVertices());
   distortion_ = Eigen::VectorXd::Zero(disc_->numElements());
   smoothness_ = Eigen::VectorXd::Zero(disc_->numElements());
@@ -231,8 +232,7 @@ EditEngine::~EditEngine() = default;
 void EditEngine::validate(const EditState& s) const {
   const int n = disc_->numVertices();
   const std::vector<bool>& active = disc_->active();
-  const Eigen::MatrixXd rest = mesh_.positions();
-  const Eigen::Vector3d center = 0.5 * (rest.colwise().minCoeff() + rest.colwise().maxCoeff());
+  const Eigen::Vector3d& center = restCenter_;
   const double reach = 1000.0 * std::max(disc_->boundingBoxDiagonal(), 1e-300);
   std::vector<int> owner(static_cast<size_t>(n), -1);
   std::set<int> ids;
@@ -295,7 +295,7 @@ void EditEngine::validate(const EditState& s) const {
 void EditEngine::setState(EditState state) {
   // Planar meshes: targets live in the mesh's plane.
   if (mesh_.kind() == MeshKind::Planar) {
-    const Eigen::MatrixXd rest = mesh_.positions();
+    const Mesh::PointRows rest = mesh_.points();
     for (EditHandle& h : state.handles)
       for (Eigen::Index i = 0; i < h.targets.rows() && h.targets.cols() == 3; ++i)
         if (h.vertices[static_cast<size_t>(i)] >= 0 &&
@@ -374,11 +374,11 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
   report.weightsSeconds = timer.seconds();
 
   timer.reset();
-  Eigen::MatrixXd positions = positions_;
+  Eigen::MatrixXd positions;  // the new shape when it changed (`deformed`)
   bool deformed = false;
   if (!hasHandles || !p.deform) {
-    deformed = !computed_ || positions_ != mesh_.positions();
-    if (deformed) positions = mesh_.positions();
+    deformed = !computed_ || positions_ != mesh_.points();
+    if (deformed) positions = mesh_.points();
     if (!hasHandles) {
       S.deform.reset();
       S.reference.reset();
@@ -396,8 +396,10 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
     // The shape of the deformation, also when it did not solve again (the shape may have
     // been at rest for a state without deformation).
     deformed = deformed || !computed_ || !computed_->params.deform;
-    if (deformed) {
-      positions = mesh_.positions();
+    if (deformed && S.deform.positions.cols() == 3) {
+      positions = S.deform.positions;
+    } else if (deformed) {  // planar: the rest z
+      positions = mesh_.points();
       positions.leftCols(disc_->dim()) = S.deform.positions;
     }
     report.iterations = lastRun_.iterations;
@@ -430,12 +432,13 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
 
   // Per-element maps and the Table-1 metrics of a deformation.
   timer.reset();
+  const Eigen::MatrixXd& shape = deformed ? positions : positions_;
   if (deformed || weightsChanged || mapsParamsChanged(want))
-    refreshMaps(want, positions);
+    refreshMaps(want, shape);
   else if (referenceChanged)  // only the reference moved (it refines after the shape): Dist
-    refreshDist(want, positions);
+    refreshDist(want, shape);
   report.metricsSeconds = timer.seconds();
-  positions_ = positions;
+  if (deformed) positions_.swap(positions);
   weights_ = weights;
 }
 
@@ -566,7 +569,9 @@ bool EditEngine::syncDiffusion(const EditState& want) {
 void EditEngine::computeMaps(const EditState& want, const Eigen::MatrixXd& positions) {
   const Systems& S = *systems_;
   const EditParams& p = want.params;
-  const Eigen::MatrixXd X = positions.leftCols(disc_->dim());
+  Eigen::MatrixXd planar;  // a planar mesh's x and y
+  if (positions.cols() != disc_->dim()) planar = positions.leftCols(disc_->dim());
+  const Eigen::MatrixXd& X = positions.cols() != disc_->dim() ? planar : positions;
   std::optional<RegularizationWeights> restWeights;  // without handles: no session
   if (!S.deform.session)
     restWeights = makeRegularizationWeights(*disc_, p.regularization, p.beta,

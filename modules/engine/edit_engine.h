@@ -293,6 +293,7 @@ class EditEngine {
   bool refine_ = false;
   UpdateReport last_;
   Eigen::MatrixXd positions_;
+  Eigen::Vector3d restCenter_;  // of the rest shape's bounding box: targets' reach
   Eigen::VectorXd weights_, distortion_, smoothness_;
   DeformationMetrics metrics_;
   SolverStats weightTotals_, deformTotals_, referenceTotals_;

@@ -194,13 +194,15 @@ void writeMedit(std::ostream& stream, const TetMesh& tet) {
   out << "\nEnd\n";
 }
 
-void writePoint(TextOut& out, const Eigen::MatrixXd& points, int i) {
+template <typename Points>
+void writePoint(TextOut& out, const Points& points, int i) {
   out << points(i, 0) << ' ' << points(i, 1) << ' ' << points(i, 2);
 }
 
-/// ASCII PLY: points (double), optional vertex quality (double) with viridis colours, faces
-/// with optional face quality (double).
-void writePly(std::ostream& stream, const Eigen::MatrixXd& points, const Eigen::MatrixXi& faces,
+/// ASCII PLY: points (double; n x 3, an Eigen matrix or view), optional vertex quality (double)
+/// with viridis colours, faces with optional face quality (double).
+template <typename Points>
+void writePly(std::ostream& stream, const Points& points, const Eigen::MatrixXi& faces,
               const Eigen::VectorXd* vquality, const Eigen::VectorXd* fquality, bool colors) {
   TextOut out(&stream);
   colors = colors && vquality != nullptr;
@@ -231,7 +233,7 @@ void writePly(std::ostream& stream, const Eigen::MatrixXd& points, const Eigen::
 /// OBJ (1-based faces) or OFF, with exact coordinates.
 void writeObjOff(std::ostream& stream, const Mesh& mesh, bool obj) {
   TextOut out(&stream);
-  const Eigen::MatrixXd p = mesh.positions();
+  const Mesh::PointRows p = mesh.points();
   const Eigen::MatrixXi f = mesh.elements();
   if (!obj) out << "OFF\n" << p.rows() << ' ' << f.rows() << " 0\n";
   writeRows(out, static_cast<int>(p.rows()), [&](TextOut& o, int i) {
@@ -284,7 +286,7 @@ void validateMesh(const Mesh& mesh, const std::string& path) {
   const int n = mesh.numVertices(), m = mesh.numElements();
   const char* element = mesh.isTet() ? "tet" : "face";
   if (m == 0) throw InvalidMesh(path + ": no " + (mesh.isTet() ? "tetrahedra" : "faces"));
-  const Eigen::MatrixXd p = mesh.positions();
+  const Mesh::PointRows p = mesh.points();
   for (int i = 0; i < n; ++i) {
     if (!p.row(i).allFinite()) {
       throw InvalidMesh(path + ": vertex " + std::to_string(i) + " (0-based) has a non-finite " +
@@ -355,7 +357,7 @@ void checkWritable(const std::string& path, MeshKind kind) {
 void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& options) {
   checkWritable(path, mesh.kind());
   const std::string ext = extensionOf(path);
-  if (!mesh.positions().allFinite()) {
+  if (!mesh.points().allFinite()) {
     throw InvalidMesh("cannot write " + quote(path) + ": the mesh has non-finite coordinates");
   }
   const auto scalar = [&](bool vertex, const std::string& name) -> std::optional<Eigen::VectorXd> {
@@ -393,7 +395,7 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
         writePly(out, b.points, b.faces, bvq ? &*bvq : nullptr, bfq ? &*bfq : nullptr,
                  options.colors);
       } else {
-        writePly(out, mesh.positions(), mesh.elements(), vq ? &*vq : nullptr, fq ? &*fq : nullptr,
+        writePly(out, mesh.points(), mesh.elements(), vq ? &*vq : nullptr, fq ? &*fq : nullptr,
                  options.colors);
       }
     } else if (ext == "obj" || ext == "off") {

@@ -95,6 +95,17 @@ int Mesh::numElements() const {
   return isTet() ? static_cast<int>(tet_.tets.size()) : static_cast<int>(tri_->n_faces());
 }
 
+// Both point types are three doubles in a row, so the points are one n x 3 row-major array.
+static_assert(sizeof(TriMesh::Point) == 3 * sizeof(double));
+static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double));
+
+Mesh::PointRows Mesh::points() const {
+  const int n = numVertices();
+  if (n == 0) return PointRows(nullptr, 0, 3);
+  const double* first = isTet() ? tet_.points.front().data() : tri_->points()->data();
+  return PointRows(first, n, 3);
+}
+
 Eigen::MatrixXd Mesh::positions() const {
   const int n = numVertices();
   Eigen::MatrixXd p(n, 3);

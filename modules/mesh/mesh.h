@@ -106,6 +106,10 @@ class Mesh {
 
   /// Vertex positions, n x 3 (planar meshes keep their constant z).
   Eigen::MatrixXd positions() const;
+  /// The same positions without a copy: a read-only view of the mesh's own points (n rows of
+  /// x, y, z), valid until the mesh is assigned to, moved from or given vertices.
+  using PointRows = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>;
+  PointRows points() const;
   /// Sets all vertex positions from an n x 3 (or n x 2 for planar meshes, z kept) matrix.
   void setPositions(const Eigen::MatrixXd& positions);
   /// Element vertex indices, m x 3 or m x 4.
