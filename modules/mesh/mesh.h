@@ -107,7 +107,9 @@ class Mesh {
   /// Vertex positions, n x 3 (planar meshes keep their constant z).
   Eigen::MatrixXd positions() const;
   /// The same positions without a copy: a read-only view of the mesh's own points (n rows of
-  /// x, y, z), valid until the mesh is assigned to, moved from or given vertices.
+  /// x, y, z). Valid while the mesh's vertices stay as they are: not after the Mesh is
+  /// assigned to or the TriMesh (tri()) or TetMesh (tet()) gains, loses or collects vertices;
+  /// moving the Mesh keeps it valid (the points stay where they are).
   using PointRows = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>;
   PointRows points() const;
   /// Sets all vertex positions from an n x 3 (or n x 2 for planar meshes, z kept) matrix.

@@ -14,12 +14,9 @@ Eigen::MatrixXd currentPositions(const Document& doc, const Discretization& disc
   return doc.mesh.positions().leftCols(disc.dim());
 }
 
-ElementMaps writeElementMaps(Document& doc, const Discretization& disc, Energy energy,
-                             const Eigen::MatrixXd& positions) {
-  ElementMaps maps = elementMaps(disc, energy, positions);
+void writeElementMaps(Document& doc, const ElementMaps& maps) {
   doc.mesh.setElementScalar(prop::distortion, maps.distortion);
   doc.mesh.setElementScalar(prop::smoothness, maps.smoothness);
-  return maps;
 }
 
 }  // namespace diffreg

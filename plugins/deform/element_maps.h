@@ -20,8 +20,7 @@ Eigen::MatrixXd toMeshPositions(const Document& doc, const Eigen::MatrixXd& posi
 Eigen::MatrixXd currentPositions(const Document& doc, const Discretization& disc);
 
 /// Writes diffreg:distortion (D_k) and diffreg:smoothness (largest ||e_k - e_l||^2 over the
-/// element's facets) for `positions` (n x d) under `energy`, and returns them.
-ElementMaps writeElementMaps(Document& doc, const Discretization& disc, Energy energy,
-                             const Eigen::MatrixXd& positions);
+/// element's facets) from `maps` (elementMaps of the document's positions).
+void writeElementMaps(Document& doc, const ElementMaps& maps);
 
 }  // namespace diffreg

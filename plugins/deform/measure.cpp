@@ -102,10 +102,11 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
     referenceText = "unregularized solve";
   }
 
-  const ElementMaps maps = writeElementMaps(doc, disc, energy, positions);
+  const ElementMaps maps = elementMaps(disc, energy, positions);
   const DeformationMetrics m =
       measureDeformation(disc, energy, positions, weights, reference ? &*reference : nullptr,
                          nullptr, nullptr, &maps.distortion);
+  writeElementMaps(doc, maps);  // after the metrics: a failure leaves the mesh as it was
   out.data = {{"energy", toString(energy)},
               {"metrics",
                {{"D_max", m.dMax},

@@ -110,9 +110,9 @@ py::dict measureArrays(const py::object& V, const py::object& E, const py::objec
     py::gil_scoped_release release;
     const RegularizationWeights rw =
         makeRegularizationWeights(disc, mode, params.getFloat("beta"), w);
-    distortion = elementDistortion(disc, energy, positions.leftCols(disc.dim()));
-    metrics = measureDeformation(disc, energy, positions.leftCols(disc.dim()), rw,
-                                 reference.is_none() ? nullptr : &ref, nullptr,
+    const Eigen::MatrixXd X = positions.leftCols(disc.dim());
+    distortion = elementDistortion(disc, energy, X);
+    metrics = measureDeformation(disc, energy, X, rw, reference.is_none() ? nullptr : &ref, nullptr,
                                  startTargets.is_none() ? nullptr : &start, &distortion);
   }
   py::dict out;
