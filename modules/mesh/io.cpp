@@ -135,10 +135,11 @@ class TextOut {
 
   template <typename T>
   TextOut& number(T v) {
-    const size_t used = buffer_.size();
-    buffer_.resize(used + kRoom);
-    const auto r = std::to_chars(buffer_.data() + used, buffer_.data() + used + kRoom, v);
-    buffer_.resize(static_cast<size_t>(r.ptr - buffer_.data()));
+    // Formatted on the stack and appended: growing the buffer by kRoom first would clear those
+    // bytes for every number.
+    char digits[kRoom];
+    const auto r = std::to_chars(digits, digits + kRoom, v);
+    buffer_.append(digits, static_cast<size_t>(r.ptr - digits));
     return spill();
   }
   TextOut& spill() {
