@@ -1,5 +1,6 @@
 #include <diffreg/discretization/discretization.h>
 
+#include <diffreg/core/disjoint_sets.h>
 #include <diffreg/core/error.h>
 #include <diffreg/mesh/halfedges.h>
 
@@ -7,30 +8,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numeric>
 #include <string>
 
 namespace diffreg {
 namespace {
-
-// Union-find for the connected components of the element graph.
-struct DisjointSets {
-  std::vector<int> parent;
-  explicit DisjointSets(int n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  int find(int i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  }
-  // The larger root under the smaller: a mesh's unions, element by element, otherwise build
-  // long chains for find() to walk (twice the time on the shared meshes).
-  void unite(int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return;
-    if (a < b) std::swap(a, b);
-    parent[a] = b;
-  }
-};
 
 // One (sorted vertex key, element) record per element facet, for adjacency by sorting.
 struct FacetRecord {

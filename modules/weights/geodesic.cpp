@@ -4,6 +4,7 @@
 #endif
 #include <diffreg/weights/geodesic.h>
 
+#include <diffreg/core/disjoint_sets.h>
 #include <diffreg/core/error.h>
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/solver/solver.h>
@@ -18,7 +19,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <numeric>
 #include <string>
 
 namespace diffreg {
@@ -59,12 +59,6 @@ using HeatMethod =
     CGAL::Heat_method_3::Surface_mesh_geodesic_distances_3<TriMesh, CGAL::Heat_method_3::Direct,
                                                            DoublePointMap>;
 
-/// Union-find over vertex ids.
-int findRoot(std::vector<int>& parent, int v) {
-  while (parent[v] != v) v = parent[v] = parent[parent[v]];
-  return v;
-}
-
 void checkSources(const std::vector<int>& sources, int n) {
   if (sources.empty()) throw InvalidParameter("geodesic distances: no source vertex given");
   for (int s : sources) {
@@ -82,8 +76,7 @@ class TriangleHeat {
   explicit TriangleHeat(const Mesh& mesh) {
     const TriMesh& tri = mesh.tri();
     const int n = static_cast<int>(tri.n_vertices());
-    std::vector<int> parent(n);
-    std::iota(parent.begin(), parent.end(), 0);
+    DisjointSets sets(n);
     for (auto f : tri.faces()) {
       std::array<int, 3> ids{};
       std::array<TriMesh::Point, 3> p;
@@ -99,8 +92,8 @@ class TriangleHeat {
         throw InvalidMesh("geodesic distances: face " + std::to_string(f.idx()) +
                           " is degenerate (zero area)");
       }
-      parent[findRoot(parent, ids[1])] = findRoot(parent, ids[0]);
-      parent[findRoot(parent, ids[2])] = findRoot(parent, ids[0]);
+      sets.unite(ids[0], ids[1]);
+      sets.unite(ids[0], ids[2]);
     }
     if (tri.n_faces() == 0) throw InvalidMesh("geodesic distances: the mesh has no face");
 
@@ -111,7 +104,7 @@ class TriangleHeat {
     std::vector<int> rootComponent(n, -1);
     for (int v = 0; v < n; ++v) {
       if (!used[v]) continue;
-      const int r = findRoot(parent, v);
+      const int r = sets.find(v);
       if (rootComponent[r] < 0) {
         rootComponent[r] = static_cast<int>(parts_.size());
         parts_.push_back(std::make_unique<Part>());
