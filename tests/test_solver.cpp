@@ -5,10 +5,6 @@
 
 #include <catch2/catch.hpp>
 
-#include <algorithm>
-#include <random>
-#include <vector>
-
 using namespace diffreg;
 
 namespace {
@@ -141,45 +137,6 @@ TEST_CASE("a solver told when its pattern changes keeps no copy and still analyz
   trusted.setPartition(Partition(fixed));
   trusted.setMatrix(wider, true);
   CHECK(trusted.stats().symbolic == 3);
-}
-
-TEST_CASE("the free block's lower triangle is the triangular part of the free block", "[solver]") {
-  // A random symmetric pattern with explicit zeros, random fixed unknowns (none, some, all but
-  // one): the same indices and values as Eigen's triangular view of freeFree, in the same order.
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> value(-1.0, 1.0);
-  const int n = 60;
-  std::vector<Eigen::Triplet<double>> t;
-  for (int i = 0; i < n; ++i) {
-    t.emplace_back(i, i, 4.0);
-    for (int j = 0; j < i; ++j) {
-      if (rng() % 5 != 0) continue;
-      const double v = rng() % 7 == 0 ? 0.0 : value(rng);
-      t.emplace_back(i, j, v);
-      t.emplace_back(j, i, v);
-    }
-  }
-  SparseMatrix A(n, n);
-  A.setFromTriplets(t.begin(), t.end());
-  for (int share : {0, 3, 100}) {
-    std::vector<bool> fixed(static_cast<size_t>(n), false);
-    for (int i = 0; i < n; ++i)
-      fixed[static_cast<size_t>(i)] = static_cast<int>(rng() % 100) < share;
-    fixed[static_cast<size_t>(n / 2)] = false;
-    const Partition p(fixed);
-    const SparseMatrix expected = SparseMatrix(p.freeFree(A).triangularView<Eigen::Lower>());
-    const SparseMatrix lower = p.freeFreeLower(A);
-    INFO("fixed share " << share);
-    REQUIRE(lower.isCompressed());
-    REQUIRE(lower.rows() == expected.rows());
-    REQUIRE(lower.cols() == expected.cols());
-    REQUIRE(lower.nonZeros() == expected.nonZeros());
-    CHECK(std::equal(lower.outerIndexPtr(), lower.outerIndexPtr() + lower.cols() + 1,
-                     expected.outerIndexPtr()));
-    CHECK(std::equal(lower.innerIndexPtr(), lower.innerIndexPtr() + lower.nonZeros(),
-                     expected.innerIndexPtr()));
-    CHECK(std::equal(lower.valuePtr(), lower.valuePtr() + lower.nonZeros(), expected.valuePtr()));
-  }
 }
 
 TEST_CASE("A free component without fixed values is a SingularSystem", "[solver]") {

@@ -326,20 +326,15 @@ Partition::Partition(const std::vector<bool>& fixed) : local_(fixed.size()), isF
 
 namespace {
 // The block of A with the free rows and the free (colsFixed = false) or fixed columns, built
-// column by column: local() is increasing within each class, so rows stay sorted. `lower`
-// (free columns only): the entries on and below the diagonal alone, those with row >= column
-// (the same rows in local numbering, since local() keeps the order).
-SparseMatrix block(const Partition& p, const SparseMatrix& A, bool colsFixed, bool lower = false) {
+// column by column: local() is increasing within each class, so rows stay sorted.
+SparseMatrix block(const Partition& p, const SparseMatrix& A, bool colsFixed) {
   const int cols = colsFixed ? p.numFixed() : p.numFree();
   const std::vector<int>& ids = colsFixed ? p.fixedIds() : p.freeIds();
-  const auto kept = [&](int row, int column) {
-    return !p.isFixed(row) && (!lower || row >= column);
-  };
   SparseMatrix B(p.numFree(), cols);
   Eigen::Index count = 0;
   for (int j : ids)
     for (SparseMatrix::InnerIterator it(A, j); it; ++it)
-      if (kept(static_cast<int>(it.row()), j)) ++count;
+      if (!p.isFixed(static_cast<int>(it.row()))) ++count;
   B.resizeNonZeros(count);
   int* outer = B.outerIndexPtr();
   int* inner = B.innerIndexPtr();
@@ -349,7 +344,7 @@ SparseMatrix block(const Partition& p, const SparseMatrix& A, bool colsFixed, bo
   for (int c = 0; c < cols; ++c) {
     for (SparseMatrix::InnerIterator it(A, ids[c]); it; ++it) {
       const int row = static_cast<int>(it.row());
-      if (!kept(row, ids[c])) continue;
+      if (p.isFixed(row)) continue;
       inner[at] = p.local(row);
       values[at] = it.value();
       ++at;
@@ -367,9 +362,6 @@ Eigen::MatrixXd rows(const Eigen::MatrixXd& X, const std::vector<int>& ids) {
 }  // namespace
 
 SparseMatrix Partition::freeFree(const SparseMatrix& A) const { return block(*this, A, false); }
-SparseMatrix Partition::freeFreeLower(const SparseMatrix& A) const {
-  return block(*this, A, false, true);
-}
 SparseMatrix Partition::freeFixed(const SparseMatrix& A) const { return block(*this, A, true); }
 Eigen::MatrixXd Partition::gatherFree(const Eigen::MatrixXd& X) const { return rows(X, free_); }
 Eigen::MatrixXd Partition::gatherFixed(const Eigen::MatrixXd& X) const { return rows(X, fixed_); }
@@ -404,7 +396,7 @@ void EliminatedSolver::setMatrix(const SparseMatrix& A, bool samePattern) {
   {
     // The solver reads the lower triangle only: keeping just that halves the copy that lives
     // through the factorization (and the pattern kept for comparison).
-    const SparseMatrix AFF = partition_.freeFreeLower(A);
+    const SparseMatrix AFF = SparseMatrix(partition_.freeFree(A).triangularView<Eigen::Lower>());
     if (trusted_ && samePattern && !forceAnalyze_ && solver_.analyzed())
       solver_.factorize(AFF);
     else

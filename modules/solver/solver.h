@@ -69,8 +69,6 @@ class Partition {
   /// A_FF (free x free) and A_FJ (free x fixed) of an n x n matrix.
   SparseMatrix freeFree(const SparseMatrix& A) const;
   SparseMatrix freeFixed(const SparseMatrix& A) const;
-  /// The lower triangle of A_FF (with the diagonal), as the solvers read it.
-  SparseMatrix freeFreeLower(const SparseMatrix& A) const;
   /// Rows of X at the free (or fixed) unknowns.
   Eigen::MatrixXd gatherFree(const Eigen::MatrixXd& X) const;
   Eigen::MatrixXd gatherFixed(const Eigen::MatrixXd& X) const;
