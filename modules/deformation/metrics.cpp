@@ -90,18 +90,13 @@ bool inverted(const Discretization& disc, const Eigen::MatrixXd& X, int k) {
   } else {
     if (disc.kind() != MeshKind::Surface) return F.partialPivLu().determinant() <= 0.0;
     // F n = 0, so R_k = [Q, q1 x q2] [E, n]^T with E the rest tangent frame and Q the polar
-    // factor of F E (the surface fit's closed form): R_k n = q1 x q2. Nearly collapsed
-    // triangles, where that form declines, take the SVD.
-    const Eigen::Vector3d n = disc.normals().row(k).transpose();
+    // factor of M = F E, as the surface fit finds it (rotationTarget: the closed form, the SVD
+    // for nearly collapsed triangles): R_k n = q1 x q2.
+    const Matrix32 M = F * tangentFrame(disc.normals().row(k).transpose());
     Matrix32 Q;
     double trace = 0.0;
-    Eigen::Vector3d Rn;
-    if (tangentPolar(F * tangentFrame(n), Q, trace)) {
-      Rn = Q.col(0).cross(Q.col(1));
-    } else {
-      Eigen::Vector3d sigma;
-      Rn = closestRotation<3>(F, sigma) * n;
-    }
+    if (!tangentPolar(M, Q, trace)) Q = tangentPolarSvd(M, trace);
+    const Eigen::Vector3d Rn = Q.col(0).cross(Q.col(1));
     const Eigen::Vector3d a = (X.row(el(k, 1)) - X.row(el(k, 0))).transpose();
     const Eigen::Vector3d b = (X.row(el(k, 2)) - X.row(el(k, 0))).transpose();
     return a.cross(b).dot(Rn) <= 0.0;
