@@ -135,8 +135,10 @@ void DeformationCore::setTimeBudget(double seconds) {
   budget_ = seconds;
 }
 
-bool DeformationCore::outOfTime() const {
-  return budget_ > 0.0 && std::chrono::steady_clock::now() >= deadline_;
+bool DeformationCore::outOfTime(std::chrono::steady_clock::time_point iterationBegan) const {
+  if (budget_ <= 0.0) return false;
+  const auto now = std::chrono::steady_clock::now();
+  return now + (now - iterationBegan) > deadline_;
 }
 
 SolverStats DeformationCore::stats() const {
@@ -221,6 +223,7 @@ double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X
 void DeformationCore::iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X,
                                        double E, DeformationResult& result) {
   while (result.iterations < maxIterations) {
+    const auto began = std::chrono::steady_clock::now();
     X = system_.solve(t_, targets_);
     const double previous = E;
     E = local(X, nullptr, t_);  // the reference step reads no previous targets
@@ -232,7 +235,7 @@ void DeformationCore::iterateReference(int maxIterations, double tolerance, Eige
       result.converged = true;
       return;
     }
-    if (outOfTime()) return;
+    if (outOfTime(began)) return;
   }
 }
 
@@ -244,6 +247,7 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
   Stacked mixedT;
   Eigen::MatrixXd mixed;
   while (result.iterations < maxIterations) {
+    const auto began = std::chrono::steady_clock::now();
     // The plain step: the global step for the current targets, then the local step. Both are
     // exact minimizers, so its energy is at most E; how much lower is the criterion.
     Eigen::MatrixXd plain;
@@ -267,7 +271,7 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
       result.converged = true;
       return;
     }
-    if (outOfTime()) return;
+    if (outOfTime(began)) return;
   }
 }
 
@@ -328,6 +332,7 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     if (result.converged) return;
   }
   while (result.iterations < maxIterations) {
+    const auto began = std::chrono::steady_clock::now();
     Eigen::MatrixXd d = history.direction(g, initial);
     double slope = scale * d.cwiseProduct(g).sum();
     if (!(slope < 0.0)) {  // not a descent direction: start the history again
@@ -357,7 +362,7 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
         stationarityDue_ = true;
     }
     report(result);
-    if (result.converged || outOfTime()) return;
+    if (result.converged || outOfTime(began)) return;
   }
 }
 

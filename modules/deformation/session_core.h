@@ -75,8 +75,9 @@ class DeformationCore {
   double local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
                double reference = 0.0);
   void report(const DeformationResult& result) const;
-  // The run's time budget is spent (setTimeBudget; never without one).
-  bool outOfTime() const;
+  // The run's time budget would be overrun by one more iteration as long as the one that began
+  // at `iterationBegan` (setTimeBudget; never without one).
+  bool outOfTime(std::chrono::steady_clock::time_point iterationBegan) const;
   // The elements in locality order (element_order.h) when the caller's order scatters
   // neighbours and the session may be regularized (DeformationOptions::reserveRegularization):
   // order[i] is the caller's element stored i-th, and ordered_ the copy of the

@@ -58,8 +58,9 @@ struct RbfSettings {
   bool clamp = true;
 };
 
-/// The editor's time budget per update (EditParams::seconds): a drag's iterations take about a
-/// quarter of a second on any mesh (plus one iteration of the reference and the maps; a new
+/// The editor's time budget per update (EditParams::seconds): a drag's iterations take at most
+/// about a quarter of a second on any mesh (a run stops before an iteration that would overrun
+/// it; one iteration at least, plus one iteration of the reference and the maps; a new
 /// factorization or weights solve, and relaxing the energy of a shape that has just converged,
 /// come on top), and the shape is refined while idle.
 constexpr double kEditorSeconds = 0.25;

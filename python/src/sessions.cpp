@@ -272,8 +272,9 @@ void bindDeformationSession(py::module_& m) {
            "set_weights(weights)\n\nNon-uniform regularization with these vertex weights.")
       .def("set_time_budget", &PyDeformationSession::setTimeBudget, py::arg("seconds"),
            "set_time_budget(seconds)\n\nSeconds each solve, solve_from or resume may iterate "
-           "(0: no limit, the default): the run then stops unconverged after the iteration in "
-           "progress, and resume() continues it with the steps of one run. For interactive "
+           "(0: no limit, the default): the run stops unconverged after the first iteration "
+           "that leaves less time than it took itself, and resume() continues it with the "
+           "steps of one run. For interactive "
            "use; where it stops depends on the machine.")
       .def("solve", &PyDeformationSession::solve, py::arg("iterations") = py::none(),
            py::arg("tolerance") = py::none(),
