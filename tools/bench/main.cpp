@@ -370,6 +370,7 @@ void printConvergence(const std::vector<Result>& results, std::ostream& out) {
   Table c({"case", "V", "it 1e-3", "ms", "it 1e-4", "ms", "it 1e-6", "ms", "300 it (ms)",
            "read + preprocess + 300 it (ms)"});
   bool any = false, anyCgal = false;
+  std::ostringstream elsewhere;
   for (const Result& r : results) {
     if (r.c->group != "converge" || r.medians.empty()) continue;
     if (r.has("cgal_cap_iterations")) {
@@ -400,6 +401,14 @@ void printConvergence(const std::vector<Result>& results, std::ostream& out) {
     gap << std::scientific << std::setprecision(1) << r.get("default_gap");
     row.push_back(gap.str());
     t.add(row);
+    if (r.get("plain_elsewhere") > 0.5) {
+      elsewhere << "- " << caseLabel(r) << ": the plain run ends at another shape ("
+                << num(100.0 * r.get("plain_apart"), 1)
+                << "% of the diagonal apart, root mean square) with "
+                << num(r.get("plain_end_ratio"), 3)
+                << " times the energy; its gaps and the accelerated run's are to the lowest "
+                   "energy of the accelerated run's continuation.\n";
+    }
   }
   if (any) {
     out << "Convergence: nonuniform/uniform (beta 0.5)/no regularization ARAP, exact local step; "
@@ -407,6 +416,11 @@ void printConvergence(const std::vector<Result>& results, std::ostream& out) {
            "1e-6 of its minimum (relative), plain local/global vs the default acceleration (L-BFGS); "
            "\"default\" = the run with the default stationarity tolerance, its gap at the end.\n\n";
     t.print(out);
+    if (!elsewhere.str().empty())
+      out << "\nSurface ARAP has no bending stiffness: continued far past convergence, a plain "
+             "run can leave a stretched shape that is a saddle (e.g. a symmetric one) for a "
+             "crumpled one of lower energy.\n"
+          << elsewhere.str() << "\n";
   }
   if (anyCgal) {
     out << "CGAL's ARAP on the same scenario: iterations and ms (after preprocess) to within the "
