@@ -1,10 +1,13 @@
-// diffreg-generate: writes the meshes the project ships (meshes/) from the shape generators.
-// Every size is chosen so that planar and tet coordinates are exact in float, the precision
-// of OpenMesh's OBJ writer; running it twice gives byte-identical files.
+// diffreg-generate: writes the meshes the project ships (meshes/) from the shape generators,
+// byte for byte. Every coordinate is rounded to float and then to 9 significant digits, as the
+// shipped files hold them: planar and tet sizes are chosen so that their coordinates are exact
+// in float, the disc's and cylinder's cosines and sines are rounded.
 #include <diffreg/core/error.h>
 #include <diffreg/mesh/io.h>
 #include <diffreg/mesh/shapes.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <functional>
@@ -36,6 +39,13 @@ const std::vector<Shipped>& shippedMeshes() {
        [] { return makeTetBox(4.0, 1.0, 1.0, 16, 4, 4); }},
   };
   return meshes;
+}
+
+/// x rounded to float, then to 9 significant digits (what the files hold).
+double shippedCoordinate(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g", static_cast<double>(static_cast<float>(x)));
+  return std::strtod(text, nullptr);
 }
 
 void printUsage(std::ostream& out) {
@@ -74,7 +84,8 @@ int main(int argc, char** argv) {
     if (ec || !std::filesystem::is_directory(dir))
       throw diffreg::IoError("cannot create output directory '" + dir.string() + "'");
     for (const Shipped& s : shippedMeshes()) {
-      const diffreg::Mesh mesh = s.make();
+      diffreg::Mesh mesh = s.make();
+      mesh.setPositions(mesh.positions().unaryExpr(&shippedCoordinate));
       const std::string path = (dir / s.file).string();
       diffreg::writeMesh(path, mesh);
       std::cout << path << ": " << mesh.numVertices() << " vertices, " << mesh.numElements()
