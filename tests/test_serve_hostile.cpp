@@ -96,6 +96,33 @@ TEST_CASE("serve refuses foreign hosts, foreign origins and non-JSON writes", "[
   }
 }
 
+TEST_CASE("serve: a write without Content-Length has an empty body", "[serve]") {
+  // curl -X POST .../api/refine sends neither Content-Length nor a body.
+  Server s;
+  auto added = s.client->Post("/api/handles", kHandle, "application/json");
+  REQUIRE(added);
+  REQUIRE(s.handles() == 1);
+  const auto ask = [&](const std::string& requestLine) {
+    const int fd = s.connectRaw();
+    const std::string request = requestLine +
+                                " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(s.port) +
+                                "\r\nConnection: close\r\n\r\n";
+    REQUIRE(::send(fd, request.data(), request.size(), MSG_NOSIGNAL) ==
+            static_cast<ssize_t>(request.size()));
+    std::string reply;
+    char buffer[4096];
+    for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
+      reply.append(buffer, static_cast<size_t>(n));
+    ::close(fd);
+    return reply.substr(0, reply.find("\r\n"));
+  };
+  CHECK(ask("POST /api/refine") == "HTTP/1.1 200 OK");
+  CHECK(ask("DELETE /api/handles") == "HTTP/1.1 200 OK");
+  CHECK(s.handles() == 0);
+  // The writes that need a body still say so.
+  CHECK(ask("PATCH /api/params") == "HTTP/1.1 400 Bad Request");
+}
+
 TEST_CASE("serve: picked-points files that are devices or missing get one 4xx",
           "[serve][hostile]") {
   Server s;

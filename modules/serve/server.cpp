@@ -73,14 +73,6 @@ HttpServer::HttpServer(Api& api, ServerOptions options)
   svr.set_keep_alive_timeout(1);
   svr.set_keep_alive_max_count(100);
   svr.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
-  svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-    const std::string refusal = refuse(req);
-    if (refusal.empty()) return httplib::Server::HandlerResponse::Unhandled;
-    const int status = refusal.rfind("415 ", 0) == 0 ? 415 : 403;
-    send(errorResponse(status, refusal.substr(4)), res);
-    res.set_header("Connection", "close");
-    return httplib::Server::HandlerResponse::Handled;
-  });
   // SO_REUSEADDR only: httplib's default SO_REUSEPORT would let a second server bind a port
   // that is in use and share its connections.
   svr.set_socket_options([](socket_t sock) {
@@ -95,6 +87,26 @@ HttpServer::HttpServer(Api& api, ServerOptions options)
     a.body = req.body;
     send(api_.handle(a), res);
   };
+  svr.set_pre_routing_handler(
+      [this, apiHandler](const httplib::Request& req, httplib::Response& res) {
+        const std::string refusal = refuse(req);
+        if (refusal.empty()) {
+          // A write without Content-Length or Transfer-Encoding has no body (RFC 9112, 6.3), e.g.
+          // `curl -X POST .../api/refine`; httplib would wait for one until the connection ends
+          // and answer 400.
+          const bool write = req.method != "GET" && req.method != "HEAD";
+          if (write && req.path.rfind("/api/", 0) == 0 && !req.has_header("Content-Length") &&
+              !req.has_header("Transfer-Encoding")) {
+            apiHandler(req, res);
+            return httplib::Server::HandlerResponse::Handled;
+          }
+          return httplib::Server::HandlerResponse::Unhandled;
+        }
+        const int status = refusal.rfind("415 ", 0) == 0 ? 415 : 403;
+        send(errorResponse(status, refusal.substr(4)), res);
+        res.set_header("Connection", "close");
+        return httplib::Server::HandlerResponse::Handled;
+      });
   const std::string pattern = R"(/api/.*)";
   svr.Get(pattern, apiHandler);
   svr.Post(pattern, apiHandler);
