@@ -360,7 +360,8 @@ std::string paramSignature(const std::string& filter, const std::vector<std::str
 
 std::string paramDoc(const std::string& filter, const std::vector<std::string>& skip) {
   std::ostringstream out;
-  out << "Parameters of the filter '" << filter << "' (as `diffreg filters` lists them):\n";
+  out << "Keyword parameters, from the table of the filter '" << filter
+      << "' (as `diffreg filters` lists them):\n";
   for (const ParamSpec& spec : Registry::builtin().get(filter).params()) {
     if (skipped(spec.name, skip)) continue;
     out << "    " << spec.name << " : " << toString(spec.type);

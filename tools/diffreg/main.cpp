@@ -85,7 +85,8 @@ std::string describeFilters(const Registry& registry) {
     std::vector<std::string> notes;
     if (filter.needsHandles()) notes.push_back("needs handles");
     const auto needs = filter.requires(defaults);
-    if (!needs.empty()) notes.push_back("requires " + join(needs, ", "));
+    // What a filter needs can depend on its parameters: this is what it needs at their defaults.
+    if (!needs.empty()) notes.push_back("requires " + join(needs, ", ") + " at the defaults");
     const auto makes = filter.produces(defaults);
     if (!makes.empty()) notes.push_back("produces " + join(makes, ", "));
     out += name + (notes.empty() ? "" : "  (" + join(notes, "; ") + ")") + "\n";
