@@ -96,6 +96,96 @@ TEST_CASE("serve refuses foreign hosts, foreign origins and non-JSON writes", "[
   }
 }
 
+namespace {
+
+/// Sends `request` on a raw connection and returns the reply's status line (the server closes
+/// the connection after it: the requests below say Connection: close).
+std::string statusOf(const Server& s, const std::string& request) {
+  const int fd = s.connectRaw();
+  REQUIRE(::send(fd, request.data(), request.size(), MSG_NOSIGNAL) ==
+          static_cast<ssize_t>(request.size()));
+  std::string reply;
+  char buffer[4096];
+  for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
+    reply.append(buffer, static_cast<size_t>(n));
+  ::close(fd);
+  return reply.substr(0, reply.find("\r\n"));
+}
+
+}  // namespace
+
+TEST_CASE("serve: headers given twice, and requests from other sites' pages", "[serve][hostile]") {
+  Server s;
+  const std::string host = "Host: 127.0.0.1:" + std::to_string(s.port) + "\r\n";
+  const std::string own = "http://127.0.0.1:" + std::to_string(s.port);
+  const std::string close = "Connection: close\r\n";
+  const auto post = [&](const std::string& headers) {
+    return "POST /api/handles HTTP/1.1\r\n" + headers + close +
+           "Content-Length: " + std::to_string(kHandle.size()) + "\r\n\r\n" + kHandle;
+  };
+  const std::string json = "Content-Type: application/json\r\n";
+  // A second copy of a checked header must not slip past the check of the first.
+  CHECK(statusOf(s, "GET /api/state HTTP/1.1\r\n" + host + "Host: evil.example\r\n" + close +
+                        "\r\n") == "HTTP/1.1 400 Bad Request");
+  CHECK(statusOf(s, post(host + json + "Origin: " + own + "\r\nOrigin: http://evil.example\r\n")) ==
+        "HTTP/1.1 400 Bad Request");
+  CHECK(statusOf(s, post(host + json + json)) == "HTTP/1.1 400 Bad Request");
+  CHECK(statusOf(s, "POST /api/handles HTTP/1.1\r\n" + host + json + close +
+                        "Content-Length: 5\r\nTransfer-Encoding: chunked\r\n\r\n" + "0\r\n\r\n") ==
+        "HTTP/1.1 400 Bad Request");
+  // Only application/json itself (with parameters) is JSON.
+  CHECK(statusOf(s, post(host + "Content-Type: application/jsonx\r\n")) ==
+        "HTTP/1.1 415 Unsupported Media Type");
+  CHECK(s.handles() == 0);
+  // Reads from another site's page: an <img> of an export, a fetch with its Origin.
+  CHECK(statusOf(s, "GET /api/export/image.png HTTP/1.1\r\n" + host + close +
+                        "Sec-Fetch-Site: cross-site\r\n\r\n") == "HTTP/1.1 403 Forbidden");
+  CHECK(statusOf(s, "GET /api/state HTTP/1.1\r\n" + host + close +
+                        "Sec-Fetch-Site: same-site\r\n\r\n") == "HTTP/1.1 403 Forbidden");
+  CHECK(statusOf(s, "GET /api/state HTTP/1.1\r\n" + host + close +
+                        "Origin: http://evil.example\r\n\r\n") == "HTTP/1.1 403 Forbidden");
+  // The page's own requests, and a typed address, are answered.
+  CHECK(statusOf(s, "GET /api/state HTTP/1.1\r\n" + host + close +
+                        "Sec-Fetch-Site: same-origin\r\nOrigin: " + own + "\r\n\r\n") ==
+        "HTTP/1.1 200 OK");
+  CHECK(statusOf(s, "GET /api/state HTTP/1.1\r\n" + host + close +
+                        "Sec-Fetch-Site: none\r\n\r\n") == "HTTP/1.1 200 OK");
+  CHECK(statusOf(s, post(host + "Content-Type: application/json; charset=utf-8\r\nOrigin: " + own +
+                         "\r\nSec-Fetch-Site: same-origin\r\n")) == "HTTP/1.1 200 OK");
+  CHECK(s.handles() == 1);
+}
+
+TEST_CASE("serve: a client that trickles header lines is closed at the deadline",
+          "[serve][hostile]") {
+  ServerOptions options;
+  options.requestSeconds = 1.0;
+  Server s("bar.obj", options);
+  const int fd = s.connectRaw();
+  const std::string head =
+      "GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(s.port) + "\r\n";
+  REQUIRE(::send(fd, head.data(), head.size(), MSG_NOSIGNAL) > 0);
+  // A whole header line every 0.2 s for up to 10 s: the request is answered 400 at its
+  // deadline, and the connection must end there rather than read the lines that follow as
+  // further requests.
+  bool ended = false;
+  std::string reply;
+  for (int i = 0; i < 50 && !ended; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    if (::send(fd, "X-A: b\r\n", 8, MSG_NOSIGNAL) <= 0) ended = true;
+    char buffer[4096];
+    for (ssize_t n; !ended && (n = ::recv(fd, buffer, sizeof buffer, MSG_DONTWAIT)) != -1;) {
+      if (n == 0)
+        ended = true;
+      else
+        reply.append(buffer, static_cast<size_t>(n));
+    }
+  }
+  ::close(fd);
+  INFO("reply: " << reply);
+  CHECK(ended);
+  CHECK(reply.rfind("HTTP/1.1 400", 0) == 0);
+}
+
 TEST_CASE("serve: a write without Content-Length has an empty body", "[serve]") {
   // curl -X POST .../api/refine sends neither Content-Length nor a body.
   Server s;
@@ -103,18 +193,8 @@ TEST_CASE("serve: a write without Content-Length has an empty body", "[serve]") 
   REQUIRE(added);
   REQUIRE(s.handles() == 1);
   const auto ask = [&](const std::string& requestLine) {
-    const int fd = s.connectRaw();
-    const std::string request = requestLine +
-                                " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(s.port) +
-                                "\r\nConnection: close\r\n\r\n";
-    REQUIRE(::send(fd, request.data(), request.size(), MSG_NOSIGNAL) ==
-            static_cast<ssize_t>(request.size()));
-    std::string reply;
-    char buffer[4096];
-    for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
-      reply.append(buffer, static_cast<size_t>(n));
-    ::close(fd);
-    return reply.substr(0, reply.find("\r\n"));
+    return statusOf(s, requestLine + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(s.port) +
+                           "\r\nConnection: close\r\n\r\n");
   };
   CHECK(ask("POST /api/refine") == "HTTP/1.1 200 OK");
   CHECK(ask("DELETE /api/handles") == "HTTP/1.1 200 OK");

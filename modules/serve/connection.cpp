@@ -50,8 +50,13 @@ class DeadlineStream : public httplib::Stream {
       : sock_(sock), readTimeout_(readTimeout), writeTimeout_(writeTimeout) {}
 
   void startRequest(Clock::time_point deadline) { deadline_ = deadline; }
+  /// A read has failed (the deadline, a second of silence, or the peer's end): the request was
+  /// cut off, and nothing after it on this connection is a request.
+  bool failed() const { return failed_; }
 
   bool is_readable() const override {
+    // Nothing more of a request past its deadline, even what has arrived already.
+    if (Clock::now() >= deadline_) return false;
     return begin_ < end_ || waitFor(sock_, POLLIN, millisecondsLeft());
   }
   bool is_writable() const override {
@@ -59,11 +64,17 @@ class DeadlineStream : public httplib::Stream {
   }
   ssize_t read(char* ptr, size_t size) override {
     if (begin_ == end_) {
-      if (!is_readable()) return -1;
+      if (!is_readable()) {
+        failed_ = true;
+        return -1;
+      }
       ssize_t n;
       do n = ::recv(sock_, buffer_, sizeof buffer_, 0);
       while (n < 0 && errno == EINTR);
-      if (n <= 0) return n;
+      if (n <= 0) {
+        failed_ = true;
+        return n;
+      }
       begin_ = 0;
       end_ = static_cast<size_t>(n);
     }
@@ -88,10 +99,10 @@ class DeadlineStream : public httplib::Stream {
   socket_t socket() const override { return sock_; }
 
  private:
-  /// The read timeout, cut to what is left until the deadline (0 once it has passed).
+  /// The read timeout, cut to what is left until the deadline (rounded up: a wait that ends
+  /// early would cut the request off before it).
   int millisecondsLeft() const {
-    const auto left =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline_ - Clock::now());
+    const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline_ - Clock::now());
     return static_cast<int>(std::max<long long>(0, std::min(left, readTimeout_).count()));
   }
 
@@ -100,6 +111,7 @@ class DeadlineStream : public httplib::Stream {
   Clock::time_point deadline_ = Clock::time_point::max();
   char buffer_[4096];
   size_t begin_ = 0, end_ = 0;
+  bool failed_ = false;
 };
 
 }  // namespace
@@ -126,7 +138,9 @@ bool DeadlineServer::process_and_close_socket(socket_t sock) {
     stream.startRequest(Clock::now() + requestTime_);
     bool closed = false;
     ok = process_request(stream, left == 1, closed, nullptr);
-    if (!ok || closed) break;
+    // A request cut off (at its deadline, or by silence) was answered 400; what the client
+    // trickles after it must not start another request, and deadline, on this connection.
+    if (!ok || closed || stream.failed()) break;
   }
   ::shutdown(sock, SHUT_RDWR);
   ::close(sock);

@@ -102,7 +102,7 @@ HttpServer::HttpServer(Api& api, ServerOptions options)
           }
           return httplib::Server::HandlerResponse::Unhandled;
         }
-        const int status = refusal.rfind("415 ", 0) == 0 ? 415 : 403;
+        const int status = std::stoi(refusal.substr(0, 3));
         send(errorResponse(status, refusal.substr(4)), res);
         res.set_header("Connection", "close");
         return httplib::Server::HandlerResponse::Handled;
@@ -166,23 +166,40 @@ std::string HttpServer::refuse(const httplib::Request& req) const {
     return t;
   };
   const std::string port = std::to_string(port_);
+  // Each of these once: a second copy must not slip past the check of the first.
+  for (const char* name :
+       {"Host", "Origin", "Content-Length", "Content-Type", "Transfer-Encoding", "Sec-Fetch-Site"})
+    if (req.get_header_value_count(name) > 1)
+      return std::string("400 the request has more than one ") + name + " header";
   const std::string host = lower(req.get_header_value("Host"));
   // DNS rebinding: a foreign name that resolves to 127.0.0.1 still carries its own Host.
   if (host != "127.0.0.1:" + port && host != "localhost:" + port)
     return "403 the Host header does not name this server (127.0.0.1:" + port + ")";
-  const bool write = req.method != "GET" && req.method != "HEAD";
-  if (!write) return "";
-  // Browsers send Origin with every write; scripts (curl, tests) usually send none.
+  // Another site's page: browsers send Origin with every write and with scripted reads, and
+  // Sec-Fetch-Site with every request (an <img> of /api/export/image.png included); scripts
+  // (curl, tests) usually send neither.
   if (req.has_header("Origin")) {
     const std::string origin = lower(req.get_header_value("Origin"));
     if (origin != "http://127.0.0.1:" + port && origin != "http://localhost:" + port)
-      return "403 writes are accepted from this server's own page only";
+      return "403 requests are accepted from this server's own page only";
   }
+  if (req.has_header("Sec-Fetch-Site")) {
+    const std::string site = lower(req.get_header_value("Sec-Fetch-Site"));
+    if (site != "same-origin" && site != "none")
+      return "403 requests are accepted from this server's own page only";
+  }
+  const bool write = req.method != "GET" && req.method != "HEAD";
+  if (!write) return "";
+  if (req.has_header("Content-Length") && req.has_header("Transfer-Encoding"))
+    return "400 the request has both Content-Length and Transfer-Encoding";
   const std::string length = req.get_header_value("Content-Length");
   const bool body = std::strtoull(length.c_str(), nullptr, 10) > 0 ||
                     req.has_header("Transfer-Encoding");
-  const std::string type = lower(req.get_header_value("Content-Type"));
-  if (body && type.rfind("application/json", 0) != 0)
+  // The media type itself, without parameters such as "; charset=utf-8".
+  std::string type = lower(req.get_header_value("Content-Type"));
+  type = type.substr(0, type.find(';'));
+  type.erase(type.find_last_not_of(" \t") + 1);
+  if (body && type != "application/json")
     return "415 request bodies must be Content-Type: application/json";
   return "";
 }

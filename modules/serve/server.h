@@ -53,9 +53,11 @@ class HttpServer {
   static constexpr size_t kWorkers = 32;
 
  private:
-  /// "" when `req` may be answered; else "STATUS message": 403 for a Host that is not this
-  /// server's loopback address and port (DNS rebinding) or a write whose Origin is another
-  /// site's, 415 for a write with a body that is not application/json.
+  /// "" when `req` may be answered; else "STATUS message": 400 for a security-relevant header
+  /// given twice or a write with both Content-Length and Transfer-Encoding, 403 for a Host that
+  /// is not this server's loopback address and port (DNS rebinding) or a request from another
+  /// site's page (its Origin, or Sec-Fetch-Site other than same-origin or none), 415 for a
+  /// write with a body that is not application/json.
   std::string refuse(const httplib::Request& req) const;
 
   Api& api_;
