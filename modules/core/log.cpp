@@ -1,4 +1,5 @@
 #include <diffreg/core/log.h>
+#include <diffreg/core/text.h>
 
 #include <atomic>
 #include <iostream>
@@ -9,10 +10,10 @@ std::atomic<bool> g_quiet{false};
 }
 
 void warn(const std::string& message) {
-  if (!g_quiet) std::cerr << "diffreg: warning: " << message << "\n";
+  if (!g_quiet) std::cerr << "diffreg: warning: " << terminalLine(message) << "\n";
 }
 void info(const std::string& message) {
-  if (!g_quiet) std::cerr << "diffreg: " << message << "\n";
+  if (!g_quiet) std::cerr << "diffreg: " << terminalLine(message) << "\n";
 }
 void setQuiet(bool quiet) { g_quiet = quiet; }
 bool quiet() { return g_quiet; }

@@ -1,5 +1,6 @@
 #include <diffreg/core/text.h>
 
+#include <algorithm>
 #include <cstdio>
 
 namespace diffreg {
@@ -47,6 +48,32 @@ std::string escapeNonUtf8(const std::string& bytes) {
     out.append(bytes, i, n);
     i += n;
   }
+  return out;
+}
+
+std::string terminalLine(const std::string& text, size_t maxBytes) {
+  std::string out;
+  out.reserve(std::min(text.size(), maxBytes) + 32);
+  size_t i = 0;
+  while (i < text.size() && out.size() < maxBytes) {
+    const size_t n = sequence(text, i);
+    const auto c = static_cast<unsigned char>(text[i]);
+    // U+0080..U+009F (C1 controls) are 0xc2 0x80..0x9f in UTF-8.
+    const bool c1 = n == 2 && c == 0xc2 && static_cast<unsigned char>(text[i + 1]) < 0xa0;
+    if (n == 1 && (c == '\n' || c == '\r' || c == '\t')) {
+      out += ' ';
+    } else if (n == 0 || (n == 1 && (c < 0x20 || c == 0x7f)) || c1) {
+      for (size_t k = 0; k < std::max<size_t>(n, 1); ++k) {
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\x%02x", static_cast<unsigned char>(text[i + k]));
+        out += buf;
+      }
+    } else {
+      out.append(text, i, n);
+    }
+    i += std::max<size_t>(n, 1);
+  }
+  if (i < text.size()) out += "... (" + std::to_string(text.size() - i) + " more bytes)";
   return out;
 }
 

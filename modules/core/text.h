@@ -10,4 +10,10 @@ namespace diffreg {
 /// be told apart. Valid UTF-8 comes back unchanged.
 std::string escapeNonUtf8(const std::string& bytes);
 
+/// `text` made fit for one line of a terminal: bytes that are not UTF-8, control characters
+/// (an ESC would start a terminal escape sequence) and C1 controls written as "\xNN", line
+/// breaks and tabs as spaces, and anything past `maxBytes` cut at a character boundary and
+/// replaced by "... (N more bytes)". A message that quotes a 15 MB value stays readable.
+std::string terminalLine(const std::string& text, size_t maxBytes = 2000);
+
 }  // namespace diffreg

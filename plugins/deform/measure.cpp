@@ -17,7 +17,16 @@ namespace {
 /// the same elements).
 Mesh readMatching(const Document& doc, const std::string& path, const std::string& param,
                   bool sameElements) {
-  Mesh other = readMesh(path);
+  const std::string where = "filter measure: parameter '" + param + "': ";
+  Mesh other = [&] {
+    try {
+      return readMesh(path);
+    } catch (const IoError& e) {
+      throw IoError(where + e.what());
+    } catch (const InvalidMesh& e) {
+      throw InvalidMesh(where + e.what());
+    }
+  }();
   if (other.numVertices() != doc.mesh.numVertices())
     throw InvalidParameter("filter measure: parameter '" + param + "': '" + path + "' has " +
                            std::to_string(other.numVertices()) + " vertices, the mesh has " +

@@ -3,6 +3,7 @@
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
 #include <diffreg/core/log.h>
+#include <diffreg/core/text.h>
 #include <diffreg/render/image.h>
 #include <diffreg/solver/blas_threads.h>
 
@@ -29,12 +30,10 @@ std::string join(const std::vector<std::string>& items, const char* separator) {
 
 namespace {
 
-/// Prints the one error line, with any line breaks in `message` folded into spaces.
+/// Prints the one error line (terminalLine: line breaks folded, control bytes escaped, at most
+/// a few thousand bytes of it).
 void printError(const std::string& message) {
-  std::string line = message;
-  for (char& c : line)
-    if (c == '\n' || c == '\r') c = ' ';
-  std::cerr << "diffreg: error: " << line << std::endl;
+  std::cerr << "diffreg: error: " << terminalLine(message) << std::endl;
 }
 
 }  // namespace
