@@ -180,6 +180,13 @@ TEST_CASE("diffreg: usage errors exit with 2, other errors with 1") {
   CHECK(ws.run("frobnicate").code == 2);
   CHECK(ws.run("-i missing.off -o out.ply").code == 1);
   CHECK(ws.run("-i in.off -f 'diffuse_weights t=abc' -o out.ply").code == 1);
+  // Found before the mesh is read: a missing input is not what is reported.
+  for (const char* after : {"nan", "-1", "inf"}) {
+    const auto r = ws.run(std::string("-i missing.off -o out.ply --progress-after ") + after);
+    CHECK(r.code == 2);
+    REQUIRE(r.errLines.size() == 1);
+    CHECK(r.errLines[0].find("--progress-after") != std::string::npos);
+  }
 }
 
 TEST_CASE("diffreg: a failing run leaves an existing output untouched") {

@@ -63,6 +63,8 @@ TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",
       {in + h + "-o c.png --deform 'measure'", "deform"},
       {in + h + "-o c.png --weights 'nothing t=1'", "nothing"},
       {in + h + "-o c.png --size 20x20", "--size"},
+      {in + h + "-o c.png --beta nan", "--beta"},
+      {in + h + "-o c.png --beta 1.5", "--beta"},
   };
   for (const auto& [args, needle] : cases) {
     INFO(args);
@@ -71,6 +73,18 @@ TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",
     INFO(r.err);
     CHECK(lineCount(r.err) == 1);
     CHECK(r.err.find(needle) != std::string::npos);
+    CHECK(s.files() == 0);
+  }
+  // Bad filter values are found before any variant runs: no stage line, one error line.
+  for (const std::string& args : {in + h + "-o c.png --rbf 'rbf_weights sigma=nan'",
+                                  in + h + "-o c.png --weights 'diffuse_weights t=-1'",
+                                  in + h + "-o c.png --deform 'deform iterations=0'"}) {
+    INFO(args);
+    const ToolRun r = s.run("compare " + args);
+    CHECK(r.code == 1);
+    INFO(r.err);
+    CHECK(lineCount(r.err) == 1);
+    CHECK(r.err.find("diffreg: error: filter ") == 0);
     CHECK(s.files() == 0);
   }
 }

@@ -90,6 +90,7 @@ TEST_CASE("diffreg resolution: bad options and input exit non-zero with one line
       {h + "-o r.png", "-i"},
       {in + h + "-o r.png --levels 9", "--levels"},
       {in + h + "-o r.png --t -1", "--t"},
+      {in + h + "-o r.png --t 1e308", "--t"},
       {in + h + "-o r.png --scheme cubic", "cubic"},
       {in + h + "-o r.png --size 20x20", "--size"},
       {in + h + "-o r.png --probe 100000", "--probe"},

@@ -49,6 +49,8 @@ Step parseStep(const std::string& spec, const std::string& option) {
   if (!Registry::builtin().has(name))
     throw UsageError(option + ": unknown filter '" + name + "' (known: " +
                      join(Registry::builtin().names(), ", ") + ")");
+  // Its values checked now, before any variant runs.
+  const ParamMap checked(name, Registry::builtin().get(name).params(), values);
   return Step{name, values};
 }
 
@@ -170,6 +172,12 @@ CompareSettings compareSettings(const po::variables_map& vm) {
     if (s.deform.values.count(key))
       throw UsageError(std::string("compare: --deform must not set '") + key +
                        "': each variant sets it (use --beta for the uniform one)");
+  if (vm.count("beta")) {
+    const double beta = vm["beta"].as<double>();
+    if (!(beta >= 0.0 && beta <= 1.0))
+      throw UsageError("compare: --beta " + formatNumber(beta) + " is not in [0, 1]");
+  }
+  if (vm.count("rbf")) parseStep(vm["rbf"].as<std::string>(), "--rbf");  // checked before work
   s.outputs = checkTableOutputs(vm, "compare");
   return s;
 }

@@ -111,6 +111,10 @@ int runPipeline(const po::variables_map& vm) {
   if (!vm.count("output")) throw UsageError("missing -o OUT (see diffreg --help)");
   const std::string input = vm["input"].as<std::string>();
   currentInput() = input;
+  const double progressAfter = vm["progress-after"].as<double>();
+  if (!(progressAfter >= 0.0) || !std::isfinite(progressAfter))
+    throw UsageError("--progress-after " + formatNumber(progressAfter) +
+                     " must be a non-negative number of seconds");
   const auto outputs = vm["output"].as<std::vector<std::string>>();
   const std::string handles = vm.count("handles") ? vm["handles"].as<std::string>() : "";
   const std::string reportPath = vm.count("report") ? vm["report"].as<std::string>() : "";
@@ -145,7 +149,7 @@ int runPipeline(const po::variables_map& vm) {
   // Files the filters write (render's PNG) are staged with the outputs: all or nothing.
   StagedOutputs staged;
   doc.outputFile = [&staged](const std::string& path) { return staged.stage(path); };
-  ProgressPrinter printer(vm["progress-after"].as<double>());
+  ProgressPrinter printer(progressAfter);
   doc.progress = [&printer](const std::string& filter, int iteration, double energy,
                             double criterion) { printer(filter, iteration, energy, criterion); };
   phase.reset();

@@ -182,8 +182,9 @@ ResolutionSettings resolutionSettings(const po::variables_map& vm) {
     throw UsageError("resolution: --levels " + std::to_string(s.levels) +
                      " is out of range 0..4 (each level has 4x the triangles)");
   s.t = vm["t"].as<double>();
-  if (!std::isfinite(s.t) || s.t <= 0.0)
-    throw UsageError("resolution: --t " + formatNumber(s.t) + " must be positive");
+  if (!(s.t > 0.0 && s.t <= kMaxDiffusionTime))
+    throw UsageError("resolution: --t " + formatNumber(s.t) + " is not in (0, " +
+                     formatNumber(kMaxDiffusionTime) + "]");
   s.scheme = vm["scheme"].as<std::string>();
   if (s.scheme != "midpoint" && s.scheme != "loop")
     throw UsageError("resolution: --scheme '" + s.scheme + "' is not one of midpoint, loop");
