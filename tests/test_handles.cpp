@@ -171,9 +171,12 @@ TEST_CASE("handle file errors name the file and the handle", "[handles]") {
       error(R"({"handles": [{"vertices": [1]}, {"name": "handle0", "vertices": [2]}]})", mesh),
       Contains("two handles are named 'handle0'"));
   CHECK_THAT(error(R"({"handles": [{"name": "r", "vertices": [1], "range": 0}]})", mesh),
-             Contains("'r'") && Contains("\"range\" must be > 0"));
+             Contains("'r'") && Contains("\"range\" must be in [1e-6, 1e6]"));
   CHECK_THAT(error(R"({"handles": [{"vertices": [1], "range": -2}]})", mesh),
-             Contains("\"range\" must be > 0"));
+             Contains("\"range\" must be in [1e-6, 1e6]"));
+  // A denormal range passed "> 0" and made the weights' system singular later.
+  CHECK_THAT(error(R"({"handles": [{"vertices": [1], "range": 5e-324}]})", mesh),
+             Contains("\"range\" must be in [1e-6, 1e6]"));
   CHECK_THAT(error(R"({"handles": [{"name": "m", "vertices": [1], "magnitude": -0.1}]})", mesh),
              Contains("'m'") && Contains("\"magnitude\" must be >= 0"));
   CHECK_THAT(error(R"({"handles": [{"vertices": [1], "magnitude": 1e999}]})", mesh),

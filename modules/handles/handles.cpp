@@ -311,8 +311,8 @@ class Parser {
 
     if (h.contains("range")) out.range = number(h["range"], "\"range\"");
     if (h.contains("magnitude")) out.magnitude = number(h["magnitude"], "\"magnitude\"");
-    if (!(out.range > 0.0 && out.range <= 1e6)) {
-      fail("\"range\" must be > 0 and at most 1e6, got " + shortNumber(out.range));
+    if (!(out.range >= kMinHandleRange && out.range <= kMaxHandleRange)) {
+      fail("\"range\" must be in [1e-6, 1e6], got " + shortNumber(out.range));
     }
     if (!(out.magnitude >= 0.0 && out.magnitude <= 1.0)) {
       fail("\"magnitude\" must be >= 0 and <= 1, got " + shortNumber(out.magnitude));

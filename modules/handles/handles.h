@@ -10,11 +10,15 @@
 
 namespace diffreg {
 
+/// The range r_j every front end accepts: past these the diffusion times r_j^2 t leave the
+/// numbers a factorization can take (a range of 1e-310 made the weights' system singular).
+constexpr double kMinHandleRange = 1e-6, kMaxHandleRange = 1e6;
+
 struct Handle {
   std::string name;
   std::vector<int> vertices;  ///< mesh vertex ids (the file's numbering)
   Eigen::MatrixXd targets;    ///< |vertices| x 3 target positions (planar: z = rest z)
-  double range = 1.0;         ///< r_j in (0, 1e6]
+  double range = 1.0;         ///< r_j in [kMinHandleRange, kMaxHandleRange]
   double magnitude = 1.0;     ///< m_j in [0, 1]
 };
 

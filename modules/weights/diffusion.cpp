@@ -12,6 +12,16 @@
 #include <sstream>
 
 namespace diffreg {
+namespace {
+
+/// A number as a message shows it (1e-310, 0.5).
+std::string numberText(double x) {
+  std::ostringstream text;
+  text << x;
+  return text.str();
+}
+
+}  // namespace
 
 DiffusionCore::DiffusionCore(const Discretization& disc, SolverBackend backend)
     : disc_(disc), solver_(backend) {}
@@ -26,8 +36,9 @@ void DiffusionCore::setHandles(const std::vector<std::vector<int>>& vertexSets,
   for (size_t j = 0; j < vertexSets.size(); ++j) {
     const std::string h = "weights: handle " + std::to_string(j);
     if (vertexSets[j].empty()) throw InvalidParameter(h + " selects no vertex");
-    if (!(ranges[j] > 0.0) || !std::isfinite(ranges[j]))
-      throw InvalidParameter(h + ": range must be > 0 (got " + std::to_string(ranges[j]) + ")");
+    if (!(ranges[j] >= kMinHandleRange && ranges[j] <= kMaxHandleRange))
+      throw InvalidParameter(h + ": range must be in [1e-6, 1e6] (got " + numberText(ranges[j]) +
+                             ")");
     if (!(magnitudes[j] >= 0.0) || !std::isfinite(magnitudes[j]))
       throw InvalidParameter(h + ": magnitude must be >= 0 (got " +
                              std::to_string(magnitudes[j]) + ")");
@@ -70,8 +81,9 @@ void DiffusionCore::setMagnitude(int handle, double m) {
 void DiffusionCore::setRange(int handle, double r) {
   if (handle < 0 || handle >= static_cast<int>(sets_.size()))
     throw InvalidParameter("weights: no handle " + std::to_string(handle));
-  if (!(r > 0.0) || !std::isfinite(r))
-    throw InvalidParameter("weights: handle " + std::to_string(handle) + ": range must be > 0");
+  if (!(r >= kMinHandleRange && r <= kMaxHandleRange))
+    throw InvalidParameter("weights: handle " + std::to_string(handle) +
+                           ": range must be in [1e-6, 1e6] (got " + numberText(r) + ")");
   if (r == ranges_[handle]) return;
   ranges_[handle] = r;
   matrixDirty_ = productDirty_ = true;  // N changes: numeric refactorization only
