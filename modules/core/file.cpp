@@ -3,8 +3,12 @@
 #include <diffreg/core/error.h>
 
 #include <fcntl.h>
+#include <limits.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include <atomic>
 
 #include <cerrno>
 #include <cstdio>
@@ -106,6 +110,67 @@ std::string readFileLimited(const std::string& path, const std::string& what, st
   return text;
 }
 
+namespace {
+
+// The registry the signal handler reads: fixed slots, each claimed and released through its
+// flag, so that the handler touches no heap and no lock.
+struct TemporarySlot {
+  std::atomic<int> state{0};  // 0 free, 1 being written, 2 holds a path
+  char path[PATH_MAX];
+};
+TemporarySlot g_temporaries[kMaxTemporaries];
+
+constexpr int kCleanupSignals[] = {SIGINT, SIGTERM, SIGHUP};
+
+void removeTemporariesAndDie(int signal) {
+  for (TemporarySlot& slot : g_temporaries)
+    if (slot.state.load(std::memory_order_acquire) == 2) ::unlink(slot.path);
+  ::signal(signal, SIG_DFL);
+  ::raise(signal);
+}
+
+}  // namespace
+
+void registerTemporary(const std::string& path) {
+  if (path.size() >= PATH_MAX) return;
+  for (TemporarySlot& slot : g_temporaries) {
+    int expected = 0;
+    if (!slot.state.compare_exchange_strong(expected, 1)) continue;
+    std::memcpy(slot.path, path.c_str(), path.size() + 1);
+    slot.state.store(2, std::memory_order_release);
+    return;
+  }
+}
+
+void unregisterTemporary(const std::string& path) {
+  for (TemporarySlot& slot : g_temporaries) {
+    int expected = 2;
+    if (slot.state.load() == 2 && path == slot.path &&
+        slot.state.compare_exchange_strong(expected, 0))
+      return;
+  }
+}
+
+void removeTemporariesOnSignal() {
+  struct sigaction action {};
+  action.sa_handler = removeTemporariesAndDie;
+  sigemptyset(&action.sa_mask);
+  for (int s : kCleanupSignals) sigaddset(&action.sa_mask, s);
+  for (int s : kCleanupSignals) ::sigaction(s, &action, nullptr);
+}
+
+SignalsDeferred::SignalsDeferred() {
+  static_assert(sizeof(sigset_t) <= sizeof(saved_), "sigset_t does not fit");
+  sigset_t block;
+  sigemptyset(&block);
+  for (int s : kCleanupSignals) sigaddset(&block, s);
+  ::pthread_sigmask(SIG_BLOCK, &block, reinterpret_cast<sigset_t*>(saved_));
+}
+
+SignalsDeferred::~SignalsDeferred() {
+  ::pthread_sigmask(SIG_SETMASK, reinterpret_cast<const sigset_t*>(saved_), nullptr);
+}
+
 void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body) {
   const auto fail = [&path](const std::string& reason) {
     return IoError("cannot write '" + path + "': " + reason);
@@ -124,6 +189,11 @@ void writeFileAtomically(const std::string& path, const std::function<void(std::
   }
   if (fd < 0) throw fail("no free temporary name");
   ::close(fd);
+  registerTemporary(tmp);
+  struct Unregister {
+    const std::string& path;
+    ~Unregister() { unregisterTemporary(path); }
+  } unregister{tmp};
   try {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw fail("cannot open '" + tmp + "'");
@@ -138,7 +208,10 @@ void writeFileAtomically(const std::string& path, const std::function<void(std::
     const int err = errno;
     if (fd >= 0) ::close(fd);
     if (!synced) throw fail(std::string("sync failed: ") + std::strerror(err));
+    // A signal between the rename and the unregistration must not remove the renamed file.
+    SignalsDeferred deferred;
     if (std::rename(tmp.c_str(), path.c_str()) != 0) throw fail(std::strerror(errno));
+    unregisterTemporary(tmp);
   } catch (const Error&) {
     std::remove(tmp.c_str());
     throw;

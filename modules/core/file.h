@@ -39,6 +39,29 @@ std::uint64_t checkInputFile(const std::string& path, const std::string& what, s
 ///        `body` throws a standard exception; an Error thrown by `body` passes unchanged.
 void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body);
 
+/// Temporary files that an interrupted program should not leave behind. A program that calls
+/// removeTemporariesOnSignal() (the tools do; the library installs no signal handler) removes
+/// every registered path when SIGINT, SIGTERM or SIGHUP ends it, then dies of that signal.
+/// writeFileAtomically registers its temporaries itself. At most kMaxTemporaries at once (more
+/// are not registered); paths longer than PATH_MAX are not registered.
+inline constexpr int kMaxTemporaries = 64;
+void registerTemporary(const std::string& path);
+void unregisterTemporary(const std::string& path);
+void removeTemporariesOnSignal();
+
+/// Blocks SIGINT, SIGTERM and SIGHUP for its lifetime: a step that must not be cut in the
+/// middle (renaming a set of outputs into place) finishes first.
+class SignalsDeferred {
+ public:
+  SignalsDeferred();
+  ~SignalsDeferred();
+  SignalsDeferred(const SignalsDeferred&) = delete;
+  SignalsDeferred& operator=(const SignalsDeferred&) = delete;
+
+ private:
+  unsigned char saved_[128];  // the previous sigset_t
+};
+
 /// The path of the file `name` in the directory of the running executable (its real location,
 /// symbolic links resolved), whether or not that file exists; empty when the executable's
 /// location cannot be found out. For the tools that start one another.

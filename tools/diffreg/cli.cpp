@@ -145,7 +145,10 @@ void checkOutputTarget(const std::string& path, const std::vector<std::string>& 
 }
 
 StagedOutputs::~StagedOutputs() {
-  for (const Entry& e : staged_) std::remove(e.temporary.c_str());
+  for (const Entry& e : staged_) {
+    std::remove(e.temporary.c_str());
+    unregisterTemporary(e.temporary);
+  }
 }
 
 void ProgressPrinter::operator()(const std::string& filter, int iteration, double energy,
@@ -171,6 +174,7 @@ std::string StagedOutputs::stage(const std::string& path) {
                                               std::to_string(::getpid()) + p.extension().string()))
                               .string();
   staged_.push_back({tmp, path, canonical});
+  registerTemporary(tmp);  // an interrupted run removes it (removeTemporariesOnSignal)
   return tmp;
 }
 
@@ -185,7 +189,8 @@ void StagedOutputs::stageText(const std::string& path, const std::string& text) 
 
 void StagedOutputs::commit() {
   // Each existing target is moved aside first; if any rename fails, every target renamed so far
-  // gets its old file (or its absence) back.
+  // gets its old file (or its absence) back. An interrupt waits until the set is in place.
+  const SignalsDeferred deferred;
   std::vector<std::pair<std::string, std::string>> done;  // target, backup ("" = was absent)
   const auto undo = [&done] {
     for (auto it = done.rbegin(); it != done.rend(); ++it) {
@@ -221,6 +226,7 @@ void StagedOutputs::commit() {
   }
   for (const auto& [target, backup] : done)
     if (!backup.empty()) std::remove(backup.c_str());
+  for (const Entry& e : staged_) unregisterTemporary(e.temporary);
   staged_.clear();
 }
 

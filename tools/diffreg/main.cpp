@@ -249,5 +249,6 @@ int run(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   diffreg::tuneHeapForBatchRun();  // a run reads, computes, writes and exits
+  diffreg::removeTemporariesOnSignal();  // Ctrl-C leaves no half-written file behind
   return diffreg::runCommand([&] { return diffreg::run(argc, argv); });
 }

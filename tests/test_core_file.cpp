@@ -1,0 +1,109 @@
+// Temporary files and signals (modules/core/file.h): an interrupted program leaves none of its
+// registered temporaries behind, and dies of the signal that ended it.
+#include <diffreg/core/file.h>
+
+#include <catch2/catch.hpp>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace fs = std::filesystem;
+using namespace diffreg;
+
+namespace {
+
+/// Runs `child` in a forked process; returns its wait status.
+template <class F>
+int inChild(F child) {
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    child();
+    ::_exit(0);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  return status;
+}
+
+fs::path scratch(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("diffreg-core-file-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+}  // namespace
+
+TEST_CASE("an interrupted program removes its registered temporaries", "[core][file]") {
+  const fs::path kept = scratch("kept.txt"), tmp = scratch(".out.tmp"), done = scratch("done.txt");
+  for (const fs::path& p : {kept, tmp, done}) std::ofstream(p) << "x";
+  for (int signal : {SIGINT, SIGTERM, SIGHUP}) {
+    INFO(signal);
+    std::ofstream(tmp) << "half";
+    const int status = inChild([&] {
+      removeTemporariesOnSignal();
+      registerTemporary(tmp.string());
+      registerTemporary(done.string());
+      unregisterTemporary(done.string());  // renamed into place: no longer a temporary
+      ::raise(signal);
+      ::_exit(3);  // not reached: the signal ends the process
+    });
+    CHECK(WIFSIGNALED(status));
+    CHECK(WTERMSIG(status) == signal);
+    CHECK_FALSE(fs::exists(tmp));
+    CHECK(fs::exists(kept));
+    CHECK(fs::exists(done));
+  }
+  fs::remove_all(kept.parent_path());
+}
+
+TEST_CASE("a signal waits while SignalsDeferred is alive", "[core][file]") {
+  const fs::path tmp = scratch(".deferred.tmp"), marker = scratch("finished.txt");
+  std::ofstream(tmp) << "half";
+  const int status = inChild([&] {
+    removeTemporariesOnSignal();
+    registerTemporary(tmp.string());
+    {
+      const SignalsDeferred deferred;
+      ::raise(SIGINT);  // pending until the block ends
+      std::ofstream(marker) << "the step finished";
+      unregisterTemporary(tmp.string());  // as a rename into place would
+    }
+    ::_exit(3);  // not reached: the deferred signal ends the process here
+  });
+  CHECK(WIFSIGNALED(status));
+  CHECK(WTERMSIG(status) == SIGINT);
+  CHECK(fs::exists(marker));  // the step was not cut
+  CHECK(fs::exists(tmp));     // and what it put in place was not removed
+  fs::remove_all(tmp.parent_path());
+}
+
+TEST_CASE("writeFileAtomically's temporary goes with an interrupt", "[core][file]") {
+  const fs::path target = scratch("atomic.txt");
+  const int status = inChild([&] {
+    removeTemporariesOnSignal();
+    writeFileAtomically(target.string(), [](std::ostream& out) {
+      out << "half";
+      out.flush();
+      ::raise(SIGTERM);  // interrupted while writing
+    });
+  });
+  CHECK(WIFSIGNALED(status));
+  CHECK(WTERMSIG(status) == SIGTERM);
+  CHECK(fs::is_empty(target.parent_path()));  // neither the file nor its temporary
+  // Uninterrupted, the whole file is in place and nothing else.
+  writeFileAtomically(target.string(), [](std::ostream& out) { out << "whole"; });
+  std::ifstream in(target);
+  std::string text;
+  in >> text;
+  CHECK(text == "whole");
+  CHECK(std::distance(fs::directory_iterator(target.parent_path()), fs::directory_iterator()) == 1);
+  fs::remove_all(target.parent_path());
+}
