@@ -123,7 +123,8 @@ void checkWritableDir(const std::string& path) {
   if (dir.empty()) dir = ".";
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
-    throw IoError("cannot write '" + path + "': directory '" + dir.string() + "' does not exist");
+    throw IoError("cannot write '" + path + "': '" + dir.string() + "' " +
+                  (fs::exists(dir, ec) ? "is not a directory" : "does not exist"));
   if (::access(dir.c_str(), W_OK | X_OK) != 0)
     throw IoError("cannot write '" + path + "': directory '" + dir.string() + "' is not writable");
   const fs::file_status st = fs::status(path, ec);
