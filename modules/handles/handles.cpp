@@ -1,4 +1,5 @@
 #include <diffreg/handles/handles.h>
+#include <diffreg/handles/vertex_search.h>
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
@@ -52,7 +53,8 @@ class Parser {
         revealFiles_(revealFiles),
         rest_(mesh.positions()),
         used_(mesh.referenced()),
-        planar_(mesh.kind() == MeshKind::Planar) {
+        planar_(mesh.kind() == MeshKind::Planar),
+        search_(rest_, used_) {
     if (rest_.rows() > 0) {
       planeZ_ = rest_(0, 2);
       const double diagonal = (rest_.colwise().maxCoeff() - rest_.colwise().minCoeff()).norm();
@@ -146,18 +148,9 @@ class Parser {
     return v;
   }
 
-  /// The referenced vertex nearest to p.
+  /// The referenced vertex nearest to p (the lowest id among equidistant ones).
   int nearest(const Eigen::Vector3d& p) const {
-    int best = -1;
-    double bestDist = 0.0;
-    for (int v = 0; v < rest_.rows(); ++v) {
-      if (!used_[v]) continue;
-      const double d = (rest_.row(v).transpose() - p).squaredNorm();
-      if (best < 0 || d < bestDist) {
-        best = v;
-        bestDist = d;
-      }
-    }
+    const int best = search_.nearest(p);
     if (best < 0) fail("the mesh has no referenced vertices");
     return best;
   }
@@ -207,9 +200,7 @@ class Parser {
       const Eigen::Vector3d c = vec(w["center"], "\"within\" center", planeZ_);
       const double r = number(w["radius"], "\"within\" radius");
       if (!(r > 0.0)) fail("\"within\" radius must be > 0");
-      for (int v = 0; v < rest_.rows(); ++v) {
-        if (used_[v] && (rest_.row(v).transpose() - c).norm() <= r) ids.push_back(v);
-      }
+      ids = search_.within(c, r);
       if (ids.empty()) fail("no vertex lies within radius " + shortNumber(r) + " of the center");
     }
     if (ids.empty()) fail("empty handle (no vertices selected)");
@@ -471,6 +462,7 @@ class Parser {
   double tol_ = 1e-9;
   Eigen::Vector3d center_ = Eigen::Vector3d::Zero();
   double reach_ = 1e300;  ///< targets farther than this from center_ are refused
+  mutable VertexSearch search_;  ///< nearest and within queries (after rest_ and used_)
   std::string label_;
 };
 
