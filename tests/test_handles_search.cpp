@@ -10,10 +10,14 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <numeric>
 #include <random>
 #include <set>
 #include <sstream>
+
+#include <unistd.h>
 
 using namespace diffreg;
 using Catch::Contains;
@@ -234,4 +238,81 @@ TEST_CASE("handle files with many selectors: the same vertices as before", "[han
       CHECK(set.handles[h].vertices == expect[h]);
     }
   }
+}
+
+TEST_CASE("overlapping handles: the first overlap is reported as before", "[handles][search]") {
+  const Mesh mesh = makeRectangle(1.0, 1.0, 3, 3);
+  // Many balls that each hold every vertex: the second one ends the parse.
+  std::string json = "{\"handles\": [";
+  for (int h = 0; h < 2000; ++h) {
+    json += std::string(h ? ", " : "") + "{\"name\": \"b" + std::to_string(h) +
+            "\", \"within\": {\"center\": [0.5, 0.5], \"radius\": 1e300}}";
+  }
+  json += "]}";
+  try {
+    parseHandles(json, mesh, "h.json");
+    FAIL("no error");
+  } catch (const InvalidParameter& e) {
+    CHECK_THAT(e.what(), Contains("h.json: vertex 0 is in handles 'b0' and 'b1'"));
+  }
+}
+
+TEST_CASE("many picked points chosen by name", "[handles][search][picked]") {
+  const Mesh mesh = makeRectangle(1.0, 1.0, 40, 30);
+  const Eigen::MatrixXd x = mesh.positions();
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("diffreg-search-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  // A point near every vertex, named p<id>, every 7th inactive.
+  std::ostringstream pp, names, nearest;
+  pp.precision(17);
+  nearest.precision(17);
+  pp << "<PickedPoints>\n";
+  std::vector<int> expect;
+  for (int v = static_cast<int>(x.rows()) - 1; v >= 0; --v) {
+    const double dx = 1e-3 * (v % 3), dy = -1e-3 * (v % 5);
+    pp << " <point x='" << x(v, 0) + dx << "' y='" << x(v, 1) + dy << "' z='0' active='"
+       << (v % 7 ? 1 : 0) << "' name='p" << v << "'/>\n";
+    if (v % 7 == 0) continue;
+    names << (expect.empty() ? "" : ", ") << "\"p" << v << "\"";
+    nearest << (expect.empty() ? "" : ", ") << "[" << x(v, 0) + dx << ", " << x(v, 1) + dy << "]";
+    expect.push_back(v);
+  }
+  pp << "</PickedPoints>\n";
+  std::ofstream(dir / "points.pp") << pp.str();
+  const auto read = [&](const std::string& json) {
+    return parseHandles(json, mesh, "h.json", dir.string());
+  };
+  const auto error = [&](const std::string& json) {
+    try {
+      read(json);
+    } catch (const InvalidParameter& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  REQUIRE(expect.size() > 1000);
+  CHECK(read(R"({"handles": [{"picked": {"file": "points.pp", "names": [)" + names.str() + "]}}]}")
+            .handles[0]
+            .vertices == expect);
+  CHECK(read(R"({"handles": [{"nearest": [)" + nearest.str() + "]}]}").handles[0].vertices ==
+        expect);
+  CHECK(read(R"({"handles": [{"picked": "points.pp"}]})").handles[0].vertices == expect);
+  CHECK(read(R"({"handles_from_picked": {"file": "points.pp", "names": [)" + names.str() + "]}}")
+            .handles.size() == expect.size());
+  // A name given twice: its point is nearest to the same vertex again.
+  CHECK_THAT(
+      error(R"({"handles": [{"picked": {"file": "points.pp", "names": ["p1", "p2", "p1"]}}]})"),
+      Contains("picked points 'p1' (line ") && Contains(" are both nearest to vertex 1"));
+  CHECK_THAT(
+      error(R"({"handles_from_picked": {"file": "points.pp", "names": ["p1", "p2", "p1"]}})"),
+      Contains("two handles are named 'p1'"));
+  // Names are checked before points are chosen, whatever comes first in the list.
+  CHECK_THAT(
+      error(R"({"handles": [{"picked": {"file": "points.pp", "names": ["p1", "p1", "q"]}}]})"),
+      Contains("no point named 'q'"));
+  CHECK_THAT(
+      error(R"({"handles": [{"picked": {"file": "points.pp", "names": ["p1", "p1", "p7"]}}]})"),
+      Contains("point 'p7' in ") && Contains("is not active"));
+  std::filesystem::remove_all(dir);
 }
