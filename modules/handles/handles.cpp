@@ -1,4 +1,5 @@
 #include <diffreg/handles/handles.h>
+#include <diffreg/handles/vertex_search.h>
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
@@ -10,14 +11,15 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
+#include <unordered_map>
 
 namespace diffreg {
 namespace {
@@ -52,7 +54,9 @@ class Parser {
         revealFiles_(revealFiles),
         rest_(mesh.positions()),
         used_(mesh.referenced()),
-        planar_(mesh.kind() == MeshKind::Planar) {
+        planar_(mesh.kind() == MeshKind::Planar),
+        search_(rest_, used_),
+        owner_(rest_.rows(), -1) {
     if (rest_.rows() > 0) {
       planeZ_ = rest_(0, 2);
       const double diagonal = (rest_.colwise().maxCoeff() - rest_.colwise().minCoeff()).norm();
@@ -88,7 +92,10 @@ class Parser {
     HandleSet set;
     if (root.contains("handles")) {
       const json& list = root["handles"];
-      for (size_t i = 0; i < list.size(); ++i) set.handles.push_back(parseHandle(list[i], i));
+      for (size_t i = 0; i < list.size(); ++i) {
+        set.handles.push_back(parseHandle(list[i], i));
+        admit(set);
+      }
     }
     if (root.contains("handles_from_picked")) {
       const json& from = root["handles_from_picked"];
@@ -103,26 +110,28 @@ class Parser {
         for (size_t i = 0; i < from.size(); ++i) handlesFromPicked(from[i], i, set);
       }
     }
-
-    std::set<std::string> names;
-    std::map<int, size_t> owner;
-    for (size_t i = 0; i < set.handles.size(); ++i) {
-      const Handle& h = set.handles[i];
-      if (!names.insert(h.name).second) {
-        throw InvalidParameter(source_ + ": two handles are named '" + h.name + "'");
-      }
-      for (int v : h.vertices) {
-        const auto [it, fresh] = owner.emplace(v, i);
-        if (!fresh) {
-          throw InvalidParameter(source_ + ": vertex " + std::to_string(v) + " is in handles '" +
-                                 set.handles[it->second].name + "' and '" + h.name + "'");
-        }
-      }
-    }
     return set;
   }
 
  private:
+  /// Checks the newest handle of `set` against the earlier ones as soon as it is parsed: a
+  /// name or a vertex taken twice ends the parse there, so a file of many overlapping handles
+  /// costs no more than the vertices of the mesh.
+  void admit(const HandleSet& set) {
+    const size_t i = set.handles.size() - 1;
+    const Handle& h = set.handles[i];
+    if (!names_.insert(h.name).second) {
+      throw InvalidParameter(source_ + ": two handles are named '" + h.name + "'");
+    }
+    for (int v : h.vertices) {
+      if (owner_[v] >= 0) {
+        throw InvalidParameter(source_ + ": vertex " + std::to_string(v) + " is in handles '" +
+                               set.handles[owner_[v]].name + "' and '" + h.name + "'");
+      }
+      owner_[v] = static_cast<int>(i);
+    }
+  }
+
   [[noreturn]] void fail(const std::string& message) const {
     throw InvalidParameter(source_ + ": " + label_ + ": " + message);
   }
@@ -146,18 +155,9 @@ class Parser {
     return v;
   }
 
-  /// The referenced vertex nearest to p.
+  /// The referenced vertex nearest to p (the lowest id among equidistant ones).
   int nearest(const Eigen::Vector3d& p) const {
-    int best = -1;
-    double bestDist = 0.0;
-    for (int v = 0; v < rest_.rows(); ++v) {
-      if (!used_[v]) continue;
-      const double d = (rest_.row(v).transpose() - p).squaredNorm();
-      if (best < 0 || d < bestDist) {
-        best = v;
-        bestDist = d;
-      }
-    }
+    const int best = search_.nearest(p);
     if (best < 0) fail("the mesh has no referenced vertices");
     return best;
   }
@@ -207,9 +207,7 @@ class Parser {
       const Eigen::Vector3d c = vec(w["center"], "\"within\" center", planeZ_);
       const double r = number(w["radius"], "\"within\" radius");
       if (!(r > 0.0)) fail("\"within\" radius must be > 0");
-      for (int v = 0; v < rest_.rows(); ++v) {
-        if (used_[v] && (rest_.row(v).transpose() - c).norm() <= r) ids.push_back(v);
-      }
+      ids = search_.within(c, r);
       if (ids.empty()) fail("no vertex lies within radius " + shortNumber(r) + " of the center");
     }
     if (ids.empty()) fail("empty handle (no vertices selected)");
@@ -279,9 +277,9 @@ class Parser {
   void checkTargets(const Handle& h) const {
     for (Eigen::Index i = 0; i < h.targets.rows(); ++i) {
       const Eigen::Vector3d p = h.targets.row(i).transpose();
-      const std::string which = "the target of vertex " + std::to_string(h.vertices[i]);
-      if (!p.allFinite()) fail(which + " is not finite (the motion overflows)");
-      if ((p - center_).norm() > reach_) fail(which + " is more than 1000 mesh diagonals away");
+      const auto which = [&] { return "the target of vertex " + std::to_string(h.vertices[i]); };
+      if (!p.allFinite()) fail(which() + " is not finite (the motion overflows)");
+      if ((p - center_).norm() > reach_) fail(which() + " is more than 1000 mesh diagonals away");
     }
   }
 
@@ -361,17 +359,18 @@ class Parser {
     if (!names->is_array() || names->empty()) {
       fail("\"names\" must be a non-empty list of point names");
     }
+    const std::unordered_map<std::string, std::vector<size_t>>& byName = pickedNames(path);
+    // Every name is checked first, in order; then the points are chosen. A name given twice
+    // chooses its first point again, which is nearest to the same vertex (or names the same
+    // handle) as before: that is an error, so the list ends there.
     for (const json& n : *names) {
       if (!n.is_string()) fail("point names must be strings, got " + n.dump());
       const std::string name = n.get<std::string>();
-      bool found = false, active = false;
-      for (const PickedPoint& p : points) {
-        if (p.name != name) continue;
-        found = true;
-        if (p.active) {
-          active = true;
-          chosen.push_back(&p);
-        }
+      const auto it = byName.find(name);
+      const bool found = it != byName.end();
+      bool active = false;
+      if (found) {
+        for (size_t k : it->second) active = active || points[k].active;
       }
       if (!found) {
         std::vector<std::string> all;
@@ -387,7 +386,28 @@ class Parser {
       }
       if (!active) fail("point '" + name + "' in " + path + " is not active");
     }
+    std::set<std::string> seen;
+    for (const json& n : *names) {
+      const std::vector<size_t>& all = byName.at(n.get_ref<const std::string&>());
+      const bool again = !seen.insert(n.get<std::string>()).second;
+      for (size_t k : all) {
+        if (!points[k].active) continue;
+        chosen.push_back(&points[k]);
+        if (again) return chosen;
+      }
+    }
     return chosen;
+  }
+
+  /// The points of the .pp file `path` (already loaded) by name, in file order.
+  const std::unordered_map<std::string, std::vector<size_t>>& pickedNames(
+      const std::string& path) const {
+    const auto it = pickedNames_.find(path);
+    if (it != pickedNames_.end()) return it->second;
+    const std::vector<PickedPoint>& points = loadPicked(path);
+    std::unordered_map<std::string, std::vector<size_t>> byName;
+    for (size_t k = 0; k < points.size(); ++k) byName[points[k].name].push_back(k);
+    return pickedNames_.emplace(path, std::move(byName)).first->second;
   }
 
   /// "picked": "f.pp" or {"file": "f.pp", "names": [...]}: the vertex nearest to each chosen
@@ -456,6 +476,7 @@ class Parser {
       for (const char* key : {"translate", "rotate", "range", "magnitude"})
         if (e.contains(key)) h[key] = e[key];
       set.handles.push_back(parseHandle(h, set.handles.size(), ", from " + path));
+      admit(set);
       label_ = "handles_from_picked #" + std::to_string(index);
     }
   }
@@ -464,6 +485,8 @@ class Parser {
   std::string baseDir_;
   bool revealFiles_ = true;  ///< messages may say why a picked points file cannot be used
   mutable std::map<std::string, std::vector<PickedPoint>> picked_;  ///< .pp files read so far
+  /// Their points by name, built when a handle first chooses points of the file by name.
+  mutable std::map<std::string, std::unordered_map<std::string, std::vector<size_t>>> pickedNames_;
   Eigen::MatrixXd rest_;
   std::vector<bool> used_;
   bool planar_;
@@ -471,6 +494,9 @@ class Parser {
   double tol_ = 1e-9;
   Eigen::Vector3d center_ = Eigen::Vector3d::Zero();
   double reach_ = 1e300;  ///< targets farther than this from center_ are refused
+  mutable VertexSearch search_;  ///< nearest and within queries (after rest_ and used_)
+  std::set<std::string> names_;  ///< names of the handles admitted so far
+  std::vector<int> owner_;       ///< per vertex, the admitted handle holding it, or -1
   std::string label_;
 };
 
