@@ -12,10 +12,13 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <sstream>
 
@@ -24,6 +27,21 @@ using namespace diffreg::testing;
 namespace fs = std::filesystem;
 
 namespace {
+
+/// What `f` prints on std::cerr (where warnings go).
+template <class F>
+std::string stderrOf(F&& f) {
+  std::ostringstream captured;
+  std::streambuf* const old = std::cerr.rdbuf(captured.rdbuf());
+  try {
+    f();
+  } catch (...) {
+    std::cerr.rdbuf(old);
+    throw;
+  }
+  std::cerr.rdbuf(old);
+  return captured.str();
+}
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -302,6 +320,116 @@ TEST_CASE("OBJ: the one-pass reading gives what the token-wise reading gives", "
            "v 1 2 inf\n", "v 1 2 3x\n", quad + "f 1 2 3", "vv 1 2 3\nff 1 2 3\n" + quad,
            std::string("v 0 0 0\nv 1 0 0\0\nv 0 1 0\nf 1 2 3\n", 33), ""})
     same(text);
+  // A byte order mark (skipped once), and lines that start with no OBJ statement (left to the
+  // token-wise reading, for its warning) among the statements that are read past.
+  for (const std::string& text : std::vector<std::string>{
+           "\xEF\xBB\xBF" + quad + "f 1 2 3\n", "\xEF\xBB\xBF\xEF\xBB\xBF" + quad + "f 1 2 3\n",
+           "V 0 0 0\nv1 0 0 0\n\xC2\xA0v 0 0 0\n" + quad + "f 1 2 3\n",
+           quad + "vt 0 0\nvn 0 0 1\nvp 0\nl 1 2\np 1\ncurv2 1 2\nend\ng\nf 1 2 3\n"})
+    same(text);
+}
+
+TEST_CASE("a leading UTF-8 byte order mark is skipped in every text format", "[mesh][io]") {
+  TempDir tmp;
+  const std::string bom = "\xEF\xBB\xBF";
+  const auto same = [&](const std::string& name, const std::string& text, int vertices) {
+    INFO(name);
+    const Mesh plain = readMesh(tmp.file(name, text));
+    const Mesh marked = readMesh(tmp.file("bom-" + name, bom + text));
+    CHECK(plain.numVertices() == vertices);
+    CHECK(marked.positions() == plain.positions());
+    CHECK(marked.elements() == plain.elements());
+  };
+  const std::string points = "0 0 0\n1 0 0\n0 1 0\n1 1 0\n5 5 0\n";
+  const std::string faces = "3 0 1 2\n3 1 3 2\n3 1 4 3\n";
+  SECTION("OBJ") {
+    same("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 5 5 0\nf 1 2 3\nf 2 4 3\nf 2 5 4\n", 5);
+  }
+  SECTION("OFF") {
+    same("a.off", "OFF\n5 3 0\n" + points + faces, 5);
+    same("b.off", "OFF 5 3 0\n" + points + faces, 5);
+  }
+  SECTION("ASCII PLY") {
+    same("a.ply",
+         "ply\nformat ascii 1.0\nelement vertex 5\nproperty double x\nproperty double y\n"
+         "property double z\nelement face 3\nproperty list uchar int vertex_indices\n"
+         "end_header\n" +
+             points + faces,
+         5);
+  }
+  SECTION("binary PLY") {
+    std::string binary =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 1\n"
+        "property list uchar int vertex_indices\nend_header\n";
+    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f})
+      binary.append(reinterpret_cast<const char*>(&v), 4);
+    binary += '\3';
+    for (std::int32_t i : {0, 1, 2}) binary.append(reinterpret_cast<const char*>(&i), 4);
+    same("binary.ply", binary, 3);
+  }
+  SECTION("Medit") {
+    // This one starts with Vertices: a mark stuck to it would hide the block.
+    same("a.mesh", std::string(kTetFile).substr(std::string(kTetFile).find("Vertices")), 5);
+    same("b.mesh", kTetFile, 5);
+  }
+  SECTION("TetGen .node and .ele") {
+    const std::string node = "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n";
+    const std::string ele = "2 4 0\n1 1 2 3 4\n2 2 5 3 4\n";
+    tmp.file("plain.node", node);
+    tmp.file("plain.ele", ele);
+    tmp.file("marked.node", bom + node);
+    tmp.file("marked.ele", bom + ele);
+    const Mesh plain = readMesh(tmp / "plain.node");
+    const Mesh marked = readMesh(tmp / "marked.ele");
+    CHECK(plain.numVertices() == 5);
+    CHECK(marked.positions() == plain.positions());
+    CHECK(marked.elements() == plain.elements());
+  }
+  SECTION("one mark, at the start: a second one is not skipped") {
+    const std::string p = tmp.file("twice.ply", bom + bom + "ply\nformat ascii 1.0\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":1") && Catch::Contains("not a PLY file"));
+  }
+}
+
+TEST_CASE("OBJ: lines that start with no OBJ statement are ignored with one warning",
+          "[mesh][io]") {
+  TempDir tmp;
+  const std::string quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+  SECTION("statements diffreg does not use are read past silently") {
+    const std::string p = tmp.file(
+        "known.obj", "mtllib a.mtl\no thing\ng part\ns off\nusemtl m\n" + quad +
+                         "vt 0 0\nvn 0 0 1\nvp 0 0\nl 1 2\np 3\ncstype bspline\ndeg 3\n"
+                         "curv 0 1 1 2\ncurv2 1 2\nsurf 0 1 0 1 1 2\nparm u 0 1\ntrim 0 1 1\n"
+                         "hole 0 1 1\nscrv 0 1 1\nsp 1\nend\ncon 1 0 1 1\nbmat u 1\nstep 1\n"
+                         "mg 1 0.5\nbevel off\nc_interp off\nd_interp off\nlod 1\n"
+                         "maplib a.map\nusemap off\nshadow_obj s.obj\ntrace_obj t.obj\n"
+                         "ctech cparm 1\nstech cparma 1 1\ncall x.mod\ncsh -cmd\n"
+                         "f 1 2 3\nf 1 3 4\n");
+    Mesh mesh;
+    CHECK(stderrOf([&] { mesh = readMesh(p); }).empty());
+    CHECK(mesh.numVertices() == 4);
+    CHECK(mesh.numElements() == 2);
+  }
+  SECTION("unknown first words: the lines are not read, one warning names the first") {
+    const std::string p =
+        tmp.file("unknown.obj", "# V, v1 and a non-breaking space are no statements\n" + quad +
+                                    "V 9 9 9\nv1 9 9 9\n\xC2\xA0v 9 9 9\nvt 0 0\n"
+                                    "f 1 2 3\nf 1 3 4\n");
+    Mesh mesh;
+    const std::string err = stderrOf([&] { mesh = readMesh(p); });
+    CHECK(mesh.numVertices() == 4);  // the faces still refer to the file's v lines
+    CHECK(mesh.positions().row(3) == Eigen::RowVector3d(0, 1, 0));
+    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+    CHECK_THAT(err, Catch::StartsWith("diffreg: warning: " + p + ": ") &&
+                        Catch::Contains("3 lines") && Catch::Contains("line 6") &&
+                        Catch::Contains("'V'"));
+    const std::string q = tmp.file("nbsp.obj", "\xC2\xA0v 9 9 9\n" + quad + "f 1 2 3\nf 1 3 4\n");
+    const std::string nbsp = stderrOf([&] { readMesh(q); });
+    CHECK_THAT(nbsp, Catch::Contains(q + ": ") && Catch::Contains("1 line ") &&
+                         Catch::Contains("line 1") && Catch::Contains("'\\xc2\\xa0v'"));
+  }
 }
 
 TEST_CASE("ASCII PLY values are whitespace-separated: elements may span or share lines",

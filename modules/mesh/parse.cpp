@@ -13,8 +13,10 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <iterator>
 #include <optional>
 
 namespace diffreg {
@@ -175,12 +177,51 @@ long long count(const std::string& where, std::string_view token, const std::str
   return *n;
 }
 
+/// `text` without a leading UTF-8 byte order mark, which some editors write at the start of
+/// text files (it would otherwise stick to the file's first word).
+std::string_view withoutBom(std::string_view text) {
+  constexpr std::string_view bom = "\xEF\xBB\xBF";
+  if (text.substr(0, bom.size()) == bom) text.remove_prefix(bom.size());
+  return text;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
 // OBJ
 
 namespace {
+
+/// The OBJ statements besides v and f (texture and normal vertices, groups, materials, free-form
+/// geometry, display attributes): read past without a warning.
+bool ignoredObjStatement(std::string_view keyword) {
+  if (keyword.size() == 2 && keyword[0] == 'v')  // vt, vn and vp: the common case first
+    return keyword[1] == 't' || keyword[1] == 'n' || keyword[1] == 'p';
+  static constexpr std::string_view kIgnored[] = {
+      "g",          "o",         "s",        "usemtl",   "mtllib", "l",      "p",
+      "cstype",     "deg",       "curv",     "curv2",    "surf",   "parm",   "trim",
+      "hole",       "scrv",      "sp",       "end",      "con",    "bmat",   "step",
+      "mg",         "bevel",     "c_interp", "d_interp", "lod",    "maplib", "usemap",
+      "shadow_obj", "trace_obj", "ctech",    "stech",    "call",   "csh"};
+  return std::find(std::begin(kIgnored), std::end(kIgnored), keyword) != std::end(kIgnored);
+}
+
+/// `word` for a message: at most 40 bytes, quoted, bytes other than printable ASCII as \xNN
+/// (a non-breaking space or a stray control character would not show).
+std::string visible(std::string_view word) {
+  std::string out;
+  for (const char c : word.substr(0, 40)) {
+    const auto b = static_cast<unsigned char>(c);
+    if (b > 0x20 && b < 0x7f) {
+      out += c;
+    } else {
+      char hex[5];
+      std::snprintf(hex, sizeof hex, "\\x%02x", b);
+      out += hex;
+    }
+  }
+  return "'" + out + (word.size() > 40 ? "...'" : "'");
+}
 
 /// parseObj's common case in one pass over the bytes, without a list of tokens per line: the
 /// same points, faces and line numbers as the general reading below, or nothing at the first
@@ -207,8 +248,15 @@ std::optional<RawMesh> parseObjFast(std::string_view text) {
     const char* const stop = hash ? hash : eol;
     const char* q = skipSpace(p, stop);
     p = eol + 1;
-    if (q + 1 == stop && (*q == 'v' || *q == 'f')) return std::nullopt;  // a bare "v" or "f"
-    if (q + 1 >= stop || !isSpace(q[1])) continue;  // not "v" or "f" with something after it
+    if (q == stop) continue;  // blank or a comment
+    const char* const keywordEnd = tokenEnd(q, stop);
+    if (keywordEnd != q + 1 || (*q != 'v' && *q != 'f')) {
+      // Other statements are skipped; a line that starts with none is left to the token-wise
+      // reading, which warns about it.
+      if (ignoredObjStatement(std::string_view(q, size_t(keywordEnd - q)))) continue;
+      return std::nullopt;
+    }
+    if (keywordEnd == stop) return std::nullopt;  // a bare "v" or "f"
     if (*q == 'v') {
       Eigen::Vector3d point;
       ++q;
@@ -256,18 +304,31 @@ std::optional<RawMesh> parseObjFast(std::string_view text) {
   return raw;
 }
 
+/// parseObjByTokens without the byte order mark.
+RawMesh parseObjLines(std::string_view text, const std::string& source);
+
 }  // namespace
 
 RawMesh parseObj(std::string_view text, const std::string& source) {
+  text = withoutBom(text);
   if (auto raw = parseObjFast(text)) return std::move(*raw);
-  return detail::parseObjByTokens(text, source);
+  return parseObjLines(text, source);
 }
 
 RawMesh detail::parseObjByTokens(std::string_view text, const std::string& source) {
+  return parseObjLines(withoutBom(text), source);
+}
+
+namespace {
+
+RawMesh parseObjLines(std::string_view text, const std::string& source) {
   Scanner s(text, source);
   RawMesh raw;
   raw.base = 1;
   std::vector<std::string_view> t;
+  long long unknown = 0;  // lines that start with no OBJ statement
+  int firstUnknownLine = 0;
+  std::string_view firstUnknown;
   while (s.line(t)) {
     if (t[0] == "v") {
       const long long id = static_cast<long long>(raw.points.size()) + 1;
@@ -289,10 +350,21 @@ RawMesh detail::parseObjByTokens(std::string_view text, const std::string& sourc
         face.ids.push_back(*id > 0 ? *id - 1 : n + *id);
       }
       raw.faces.push_back(std::move(face));
+    } else if (!ignoredObjStatement(t[0]) && unknown++ == 0) {
+      firstUnknownLine = s.lineNumber();
+      firstUnknown = t[0];
     }
+  }
+  if (unknown > 0) {
+    warn(source + ": ignored " + std::to_string(unknown) +
+         (unknown == 1 ? " line that starts" : " lines that start") +
+         " with no OBJ statement (first: line " + std::to_string(firstUnknownLine) + ", " +
+         visible(firstUnknown) + ")");
   }
   return raw;
 }
+
+}  // namespace
 
 // ---------------------------------------------------------------------------------------
 // OFF
@@ -363,6 +435,7 @@ RawMesh parseBinaryOff(std::string_view data, const std::string& source) {
 }  // namespace
 
 RawMesh parseOff(std::string_view text, const std::string& source) {
+  text = withoutBom(text);
   Scanner s(text, source);
   std::vector<std::string_view> t;
   if (!s.line(t)) throw InvalidMesh(source + ": empty file");
@@ -712,6 +785,7 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
 }  // namespace
 
 RawMesh parsePly(std::string_view text, const std::string& source) {
+  text = withoutBom(text);
   const PlyHeader h = parsePlyHeader(text, source);
   std::uint64_t need = 0;
   const std::uint64_t have = text.size() - h.dataStart;
@@ -819,7 +893,7 @@ void readMeditTets(MeditTokens& f, TetMesh& tet, std::vector<int>& lines) {
 }  // namespace
 
 TetMesh parseMedit(std::string_view text, const std::string& source) {
-  MeditTokens f(text, source);
+  MeditTokens f(withoutBom(text), source);
   TetMesh tet;
   std::vector<int> tetLines;
   bool haveVertices = false, haveTets = false;
@@ -936,8 +1010,8 @@ void readTetgenTets(std::string_view text, const std::string& source, int firstI
 TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::string_view ele,
                     const std::string& eleSource) {
   TetMesh tet;
-  const int firstIndex = readTetgenNodes(node, nodeSource, tet);
-  readTetgenTets(ele, eleSource, firstIndex, tet);
+  const int firstIndex = readTetgenNodes(withoutBom(node), nodeSource, tet);
+  readTetgenTets(withoutBom(ele), eleSource, firstIndex, tet);
   return tet;
 }
 
