@@ -87,6 +87,19 @@ TEST_CASE("outputs: one file under two spellings, bad targets, nothing changed",
   CHECK(w.files() == 4 + (w.has("d.ply") ? 1 : 0) + (w.has("here") ? 1 : 0));
 }
 
+TEST_CASE("a mesh that reads as a different one is refused, nothing written", "[cli][hostile]") {
+  Bar w("hostile-mesh");
+  SECTION("a tet listed twice (its boundary surface would be wrong)") {
+    std::ofstream(w.dir / "twice.mesh")
+        << "MeshVersionFormatted 2\nDimension 3\nVertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n"
+           "0 0 1 0\n1 1 1 0\nTetrahedra\n3\n1 2 3 4 0\n1 2 3 4 0\n2 5 3 4 0\nEnd\n";
+    const ToolRun r = w.run("-i twice.mesh -o a.ply -o t.mesh");
+    CHECK(oneErrorLine(r, {"twice.mesh", "tets 0 and 1"}));
+    CHECK_FALSE(w.has("t.mesh"));
+  }
+  CHECK(w.untouched());
+}
+
 TEST_CASE("diffreg serve stops on SIGTERM", "[cli][hostile][serve]") {
   Bar w("hostile-serve");
   int out[2];

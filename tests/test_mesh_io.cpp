@@ -546,6 +546,40 @@ TEST_CASE("Medit .mesh reading", "[mesh][io]") {
     CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
                Catch::Contains(p) && Catch::Contains("tet 1 (0-based) is inverted"));
   }
+  SECTION("a repeated tet is refused, whatever its vertex order") {
+    std::string text = kTetFile;  // tets 1 2 3 4 and 2 5 3 4 share the triangle 2 3 4
+    text.replace(text.find("Tetrahedra\n2\n"), 13, "Tetrahedra\n3\n1 2 3 4 0\n");
+    const std::string p = tmp.file("twice.mesh", text);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("tets 0 and 1 (0-based)") &&
+                   Catch::Contains("same side") && Catch::Contains("repeated"));
+    // Alone, each of its triangles is on two tets: the sides tell the copies apart.
+    for (const char* copy : {"1 2 3 4 0", "2 1 4 3 0", "3 4 1 2 0"}) {
+      INFO(copy);
+      const std::string q = tmp.file("alone.mesh",
+                                     "Vertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n"
+                                     "Tetrahedra\n2\n1 2 3 4 0\n" +
+                                         std::string(copy) + "\n");
+      CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(q); }),
+                 Catch::Contains(q) && Catch::Contains("tets 0 and 1 (0-based)"));
+    }
+  }
+  SECTION("a triangle of three tets is refused, naming them") {
+    // Tets 2 and 3 both stand on the triangle 1 2 3 above z = 0, tet 1 below it.
+    const std::string p = tmp.file("three.mesh",
+                                   "Vertices\n6\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 -1 0\n"
+                                   "0 0 1 0\n0.2 0.2 2 0\nTetrahedra\n3\n1 3 2 4 0\n"
+                                   "1 2 3 5 0\n1 2 3 6 0\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("tets 0, 1 and 2 (0-based)") &&
+                   Catch::Contains("vertices 0, 1, 2;"));
+  }
+  SECTION("TetGen: a repeated tet is refused too") {
+    tmp.file("rep.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+    const std::string e = tmp.file("rep.ele", "2 4 0\n1 1 2 3 4\n2 1 2 3 4\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(e); }),
+               Catch::Contains("rep.ele") && Catch::Contains("tets 0 and 1 (0-based)"));
+  }
   SECTION("a 2D Medit mesh is refused") {
     const std::string p = tmp.file("d2.mesh", "Dimension 2\nVertices\n0\n");
     CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }), Catch::Contains(p + ":1"));
