@@ -452,6 +452,109 @@ TEST_CASE("ASCII PLY values are whitespace-separated: elements may span or share
   }
 }
 
+TEST_CASE("ASCII PLY integers are integers within their type; the format is 1.0", "[mesh][io]") {
+  TempDir tmp;
+  // Vertex properties `props` (after x y z), faces with `list` indices, `body` after the header.
+  const auto ply = [&](const std::string& props, const std::string& list, const std::string& body) {
+    return tmp.file("t.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\n"
+                    "property double y\nproperty double z\n" +
+                        props + "element face 1\nproperty list " + list +
+                        " vertex_indices\nend_header\n" + body);
+  };
+  const auto error = [&](const std::string& path) {
+    return messageOf<InvalidMesh>([&] { readMesh(path); });
+  };
+  SECTION("the ends of each type's range read as themselves") {
+    const std::string p =
+        ply("property char a\nproperty uchar b\nproperty short c\nproperty ushort d\n"
+            "property int e\nproperty uint f\nproperty int8 g\nproperty uint8 h\n",
+            "uint8 uint32",
+            "0 0 0 -128 255 -32768 65535 -2147483648 4294967295 -128 255\n"
+            "1 0 0 127 0 32767 0 2147483647 0 127 0\n0 1 0 +1 00 0 0 0 0 0 0\n3 0 1 2\n");
+    const Mesh mesh = readMesh(p);
+    CHECK(mesh.numVertices() == 3);
+    CHECK(mesh.elements() == (Eigen::MatrixXi(1, 3) << 0, 1, 2).finished());
+  }
+  SECTION("a value beyond its type names the file, line, element and property") {
+    const std::string p =
+        ply("property uchar red\n", "uchar int", "0 0 0 0\n1 0 0 300\n0 1 0 0\n3 0 1 2\n");
+    CHECK_THAT(error(p), Catch::Contains(p + ":12: vertex 1") && Catch::Contains("'300'") &&
+                             Catch::Contains("'red'") && Catch::Contains("uchar: 0..255"));
+    for (const auto& [type, value] :
+         std::vector<std::pair<std::string, std::string>>{{"char", "-129"},
+                                                          {"int8", "128"},
+                                                          {"uchar", "-1"},
+                                                          {"uint8", "256"},
+                                                          {"short", "32768"},
+                                                          {"int16", "-32769"},
+                                                          {"ushort", "65536"},
+                                                          {"uint16", "-1"},
+                                                          {"int", "2147483648"},
+                                                          {"int32", "-2147483649"},
+                                                          {"uint", "4294967296"},
+                                                          {"uint32", "-1"},
+                                                          {"int", "99999999999999999999999"}}) {
+      INFO(type << " " << value);
+      const std::string q = ply("property " + type + " v\n", "uchar int",
+                                "0 0 0 0\n1 0 0 0\n0 1 0 " + value + "\n3 0 1 2\n");
+      CHECK_THAT(error(q), Catch::Contains(q + ":13: vertex 2") &&
+                               Catch::Contains("'" + value + "' is out of range") &&
+                               Catch::Contains(type));
+    }
+  }
+  SECTION("a value that is no integer") {
+    for (const std::string value : {"2.5", "1.0", "1e0", "0x1", "one"}) {
+      INFO(value);
+      const std::string p =
+          ply("property int v\n", "uchar int", "0 0 0 " + value + "\n1 0 0 0\n0 1 0 0\n3 0 1 2\n");
+      CHECK_THAT(error(p), Catch::Contains(p + ":11: vertex 0") &&
+                               Catch::Contains("expected an integer for property 'v' (int)"));
+    }
+    // A face index of 2.5 used to be read as 2.
+    const std::string p = ply("", "uchar int", "0 0 0\n1 0 0\n0 1 0\n3 0 1 2.5\n");
+    CHECK_THAT(error(p), Catch::Contains(p + ":13: face 0") &&
+                             Catch::Contains("list 'vertex_indices' (int), got '2.5'"));
+  }
+  SECTION("list counts likewise") {
+    for (const std::string count : {"256", "3.0", "-3"}) {
+      INFO(count);
+      const std::string p = ply("", "uchar int", "0 0 0\n1 0 0\n0 1 0\n" + count + " 0 1 2\n");
+      CHECK_THAT(error(p), Catch::Contains(p + ":13: face 0 has a bad list length '" + count) &&
+                               Catch::Contains("uchar"));
+    }
+    const std::string p = ply("", "char int", "0 0 0\n1 0 0\n0 1 0\n128 0 1 2\n");
+    CHECK_THAT(error(p), Catch::Contains("'128'") && Catch::Contains("char: -128..127"));
+  }
+  SECTION("a binary count of a signed type is signed") {
+    std::string binary =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 1\n"
+        "property list char int vertex_indices\nend_header\n";
+    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f})
+      binary.append(reinterpret_cast<const char*>(&v), 4);
+    binary += '\xff';  // -1, not 255
+    binary += std::string(255 * 4, '\0');
+    const std::string p = tmp.file("signed.ply", binary);
+    CHECK_THAT(error(p), Catch::Contains(p + ": face 0 has a bad list length '-1'"));
+  }
+  SECTION("the format line is ascii, binary_little_endian or binary_big_endian 1.0") {
+    for (const std::string format :
+         {"format ascii 2.0", "format ascii 1", "format ascii", "format ascii 1.0 extra",
+          "format binary_little_endian 1.1", "format binary_big_endian 0.9", "format",
+          "format ASCII 1.0", "format ascii 1.0\nformat binary_little_endian 1.0"}) {
+      INFO(format);
+      const std::string p =
+          tmp.file("f.ply", "ply\n" + format +
+                                "\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                "property float z\nelement face 1\n"
+                                "property list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+      CHECK_THAT(error(p), Catch::Contains(p + ":") && Catch::Contains("format"));
+    }
+  }
+}
+
 TEST_CASE("polygons are triangulated, unreferenced vertices keep their numbering", "[mesh][io]") {
   TempDir tmp;
   const std::string p =

@@ -506,12 +506,19 @@ namespace {
 
 enum class PlyFormat { Ascii, Little, Big };
 
-struct PlyProperty {
+/// A scalar type: its size and kind, and its name as the header spells it (for messages).
+struct PlyType {
   std::string name;
-  int size = 0;          ///< bytes of the (item) type
+  int size = 0;          ///< bytes
   bool isFloat = false;  ///< float or double
   bool isSigned = true;
-  int countSize = 0;  ///< list: bytes of the count type (0: not a list)
+};
+
+struct PlyProperty {
+  std::string name;
+  PlyType type;   ///< of the value, or of a list's items
+  PlyType count;  ///< of a list's count (size 0: not a list)
+  bool isList() const { return count.size > 0; }
 };
 
 struct PlyElement {
@@ -523,12 +530,12 @@ struct PlyElement {
   std::uint64_t minBytes(PlyFormat format) const {
     std::uint64_t b = 0;
     for (const auto& p : props)
-      b += format == PlyFormat::Ascii ? 2 : (p.countSize ? p.countSize : p.size);
+      b += format == PlyFormat::Ascii ? 2 : (p.isList() ? p.count.size : p.type.size);
     return std::max<std::uint64_t>(b, 1);
   }
 };
 
-bool plyType(std::string_view t, PlyProperty& p) {
+bool plyType(std::string_view t, PlyType& p) {
   static const struct {
     const char* a;
     const char* b;
@@ -540,6 +547,7 @@ bool plyType(std::string_view t, PlyProperty& p) {
                {"float", "float32", 4, true, true}, {"double", "float64", 8, true, true}};
   for (const auto& e : types) {
     if (t == e.a || t == e.b) {
+      p.name = std::string(t);
       p.size = e.size;
       p.isFloat = e.isFloat;
       p.isSigned = e.isSigned;
@@ -619,16 +627,23 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
     }
     if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
     if (t[0] == "end_header") break;
-    if (t[0] == "format" && t.size() >= 2) {
+    if (t[0] == "format") {
+      // PLY 1.0 is the only version there is; another could mean anything.
+      if (haveFormat) throw InvalidMesh(where + ": a second PLY format line");
       haveFormat = true;
-      if (t[1] == "ascii")
+      if (t.size() == 3 && t[2] == "1.0" && t[1] == "ascii") {
         h.format = PlyFormat::Ascii;
-      else if (t[1] == "binary_little_endian")
+      } else if (t.size() == 3 && t[2] == "1.0" && t[1] == "binary_little_endian") {
         h.format = PlyFormat::Little;
-      else if (t[1] == "binary_big_endian")
+      } else if (t.size() == 3 && t[2] == "1.0" && t[1] == "binary_big_endian") {
         h.format = PlyFormat::Big;
-      else
-        throw InvalidMesh(where + ": unknown PLY format " + quote(t[1]));
+      } else {
+        std::string line;
+        for (const std::string_view w : t) line += (line.empty() ? "" : " ") + std::string(w);
+        throw InvalidMesh(where + ": unsupported PLY format line " + quote(line) +
+                          " (expected format ascii 1.0, binary_little_endian 1.0 or "
+                          "binary_big_endian 1.0)");
+      }
     } else if (t[0] == "element" && t.size() == 3) {
       PlyElement e;
       e.name = std::string(t[1]);
@@ -640,12 +655,10 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
       PlyProperty p;
       bool ok = false;
       if (t.size() == 5 && t[1] == "list") {
-        PlyProperty c;
-        ok = plyType(t[2], c) && !c.isFloat && plyType(t[3], p) && !p.isFloat;
-        p.countSize = c.size;
+        ok = plyType(t[2], p.count) && !p.count.isFloat && plyType(t[3], p.type) && !p.type.isFloat;
         p.name = std::string(t[4]);
       } else if (t.size() == 3) {
-        ok = plyType(t[1], p);
+        ok = plyType(t[1], p.type);
         p.name = std::string(t[2]);
       }
       if (!ok) throw InvalidMesh(where + ": bad PLY property line " + quote(l));
@@ -704,13 +717,20 @@ class PlyValues {
     return source_ + (ascii_ ? ":" + std::to_string(line()) : "") + ": " + what_;
   }
 
-  double next(int size, bool isFloat, bool isSigned) {
-    if (!ascii_) return bin_.value(size, isFloat, isSigned, what_);
+  /// Which value of a property next() reads.
+  enum class Part { Value, Item, Count };
+
+  /// The next value: of scalar property `prop`, an item of list `prop` or its count. ASCII
+  /// integers must be written as integers within their type's range.
+  double next(const PlyProperty& prop, Part part) {
+    const PlyType& type = part == Part::Count ? prop.count : prop.type;
+    if (!ascii_) return bin_.value(type.size, type.isFloat, type.isSigned, what_);
     if (!pending_ && !lines_.token(token_)) {
       throw InvalidMesh(where() + " has too few values (the file ends)");
     }
     pending_ = false;
     const std::string_view tok = token_;
+    if (!type.isFloat) return integer(tok, prop, part);
     double v = 0.0;
     const Parsed p = parseDouble(tok, v);
     if (p == Parsed::Bad) throw InvalidMesh(where() + ": expected a number, got " + quote(tok));
@@ -723,17 +743,46 @@ class PlyValues {
   /// The length of list `prop`: at most one item per two bytes (ASCII: a digit and a space) or
   /// per item size (binary) left, compared as doubles since an ASCII length may be any number.
   long long listLength(const PlyProperty& prop) {
-    const double n = next(prop.countSize, false, false);
+    const double n = next(prop, Part::Count);
     const double most = ascii_ ? static_cast<double>(lines_.remaining() / 2 + 1)
-                               : static_cast<double>(bin_.remaining() / prop.size + 1);
+                               : static_cast<double>(bin_.remaining() / prop.type.size + 1);
     if (!(n >= 0 && n <= most && n == std::floor(n))) {
-      throw InvalidMesh(where() + " has a bad list length " +
-                        quote(ascii_ ? token_ : std::string_view("(binary)")));
+      throw InvalidMesh(
+          where() + " has a bad list length " +
+          quote(ascii_ ? std::string(token_) : std::to_string(static_cast<long long>(n))));
     }
     return static_cast<long long>(n);
   }
 
  private:
+  double integer(std::string_view tok, const PlyProperty& prop, Part part) const {
+    const PlyType& type = part == Part::Count ? prop.count : prop.type;
+    const auto v = parseInt(tok);
+    const int bits = 8 * type.size;
+    const long long lo = type.isSigned ? -(1LL << (bits - 1)) : 0;
+    const long long hi = type.isSigned ? (1LL << (bits - 1)) - 1 : (1LL << bits) - 1;
+    if (v && *v >= lo && *v <= hi) return static_cast<double>(*v);
+    const std::string_view digits = tok.substr(!tok.empty() && (tok[0] == '-' || tok[0] == '+'));
+    const bool beyondLongLong =  // digits only, but too many for parseInt: out of range too
+        !v && !digits.empty() && digits.find_first_not_of("0123456789") == std::string_view::npos;
+    const std::string range = type.name + ": " + std::to_string(lo) + ".." + std::to_string(hi);
+    if (part == Part::Count) {
+      throw InvalidMesh(where() + " has a bad list length " + quote(tok) + " for list '" +
+                        prop.name + "' (" +
+                        (v || beyondLongLong ? "out of range for " + range
+                                             : "not an integer, the count is " + type.name) +
+                        ")");
+    }
+    const std::string name =
+        (part == Part::Value ? "property '" : "an item of list '") + prop.name + "'";
+    if (!v && !beyondLongLong) {
+      throw InvalidMesh(where() + ": expected an integer for " + name + " (" + type.name +
+                        "), got " + quote(tok));
+    }
+    throw InvalidMesh(where() + ": " + quote(tok) + " is out of range for " + name + " (" + range +
+                      ")");
+  }
+
   bool ascii_;
   int firstLine_;
   std::string source_;
@@ -752,7 +801,7 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
   const std::string where = source + ":" + std::to_string(e.line);
   if (vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
     throw InvalidMesh(where + ": the vertex element has no x, y and z");
-  if (face && (ids < 0 || !e.props[ids].countSize))
+  if (face && (ids < 0 || !e.props[ids].isList()))
     throw InvalidMesh(where + ": the face element has no vertex_indices list");
   for (long long k = 0; k < e.count; ++k) {
     in.start(e, k);
@@ -761,16 +810,16 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
     for (size_t i = 0; i < e.props.size(); ++i) {
       const PlyProperty& prop = e.props[i];
       const bool mine = face && static_cast<int>(i) == ids;
-      if (prop.countSize) {
+      if (prop.isList()) {
         const long long n = in.listLength(prop);
         if (mine) f.ids.reserve(static_cast<size_t>(std::min<long long>(n, kFaceReserve)));
         for (long long j = 0; j < n; ++j) {
-          const double id = in.next(prop.size, prop.isFloat, prop.isSigned);
+          const double id = in.next(prop, PlyValues::Part::Item);
           if (mine) f.ids.push_back(plyIndex(id));
         }
         continue;
       }
-      const double v = in.next(prop.size, prop.isFloat, prop.isSigned);
+      const double v = in.next(prop, PlyValues::Part::Value);
       for (int c = 0; c < 3; ++c)
         if (vertex && static_cast<int>(i) == xyz[c]) p[c] = v;
     }
