@@ -87,6 +87,31 @@ TEST_CASE("outputs: one file under two spellings, bad targets, nothing changed",
   CHECK(w.files() == 4 + (w.has("d.ply") ? 1 : 0) + (w.has("here") ? 1 : 0));
 }
 
+TEST_CASE("a mesh that reads as a different one is refused, nothing written", "[cli][hostile]") {
+  Bar w("hostile-mesh");
+  SECTION("a tet listed twice (its boundary surface would be wrong)") {
+    std::ofstream(w.dir / "twice.mesh")
+        << "MeshVersionFormatted 2\nDimension 3\nVertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n"
+           "0 0 1 0\n1 1 1 0\nTetrahedra\n3\n1 2 3 4 0\n1 2 3 4 0\n2 5 3 4 0\nEnd\n";
+    const ToolRun r = w.run("-i twice.mesh -o a.ply -o t.mesh");
+    CHECK(oneErrorLine(r, {"twice.mesh", "tets 0 and 1"}));
+    CHECK_FALSE(w.has("t.mesh"));
+  }
+  SECTION("an ASCII PLY uchar of 300, a PLY format 2.0") {
+    const std::string header =
+        "element vertex 3\nproperty uchar x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    std::ofstream(w.dir / "big.ply")
+        << "ply\nformat ascii 1.0\n" + header + "300 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    std::ofstream(w.dir / "two.ply")
+        << "ply\nformat ascii 2.0\n" + header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    CHECK(oneErrorLine(w.run("-i big.ply -o a.ply -o t.obj"), {"big.ply:10", "vertex 0", "300"}));
+    CHECK(oneErrorLine(w.run("-i two.ply -o a.ply -o t.obj"), {"two.ply:2", "format ascii 2.0"}));
+    CHECK_FALSE(w.has("t.obj"));
+  }
+  CHECK(w.untouched());
+}
+
 TEST_CASE("diffreg serve stops on SIGTERM", "[cli][hostile][serve]") {
   Bar w("hostile-serve");
   int out[2];

@@ -12,10 +12,13 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <sstream>
 
@@ -24,6 +27,21 @@ using namespace diffreg::testing;
 namespace fs = std::filesystem;
 
 namespace {
+
+/// What `f` prints on std::cerr (where warnings go).
+template <class F>
+std::string stderrOf(F&& f) {
+  std::ostringstream captured;
+  std::streambuf* const old = std::cerr.rdbuf(captured.rdbuf());
+  try {
+    f();
+  } catch (...) {
+    std::cerr.rdbuf(old);
+    throw;
+  }
+  std::cerr.rdbuf(old);
+  return captured.str();
+}
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -302,6 +320,116 @@ TEST_CASE("OBJ: the one-pass reading gives what the token-wise reading gives", "
            "v 1 2 inf\n", "v 1 2 3x\n", quad + "f 1 2 3", "vv 1 2 3\nff 1 2 3\n" + quad,
            std::string("v 0 0 0\nv 1 0 0\0\nv 0 1 0\nf 1 2 3\n", 33), ""})
     same(text);
+  // A byte order mark (skipped once), and lines that start with no OBJ statement (left to the
+  // token-wise reading, for its warning) among the statements that are read past.
+  for (const std::string& text : std::vector<std::string>{
+           "\xEF\xBB\xBF" + quad + "f 1 2 3\n", "\xEF\xBB\xBF\xEF\xBB\xBF" + quad + "f 1 2 3\n",
+           "V 0 0 0\nv1 0 0 0\n\xC2\xA0v 0 0 0\n" + quad + "f 1 2 3\n",
+           quad + "vt 0 0\nvn 0 0 1\nvp 0\nl 1 2\np 1\ncurv2 1 2\nend\ng\nf 1 2 3\n"})
+    same(text);
+}
+
+TEST_CASE("a leading UTF-8 byte order mark is skipped in every text format", "[mesh][io]") {
+  TempDir tmp;
+  const std::string bom = "\xEF\xBB\xBF";
+  const auto same = [&](const std::string& name, const std::string& text, int vertices) {
+    INFO(name);
+    const Mesh plain = readMesh(tmp.file(name, text));
+    const Mesh marked = readMesh(tmp.file("bom-" + name, bom + text));
+    CHECK(plain.numVertices() == vertices);
+    CHECK(marked.positions() == plain.positions());
+    CHECK(marked.elements() == plain.elements());
+  };
+  const std::string points = "0 0 0\n1 0 0\n0 1 0\n1 1 0\n5 5 0\n";
+  const std::string faces = "3 0 1 2\n3 1 3 2\n3 1 4 3\n";
+  SECTION("OBJ") {
+    same("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 5 5 0\nf 1 2 3\nf 2 4 3\nf 2 5 4\n", 5);
+  }
+  SECTION("OFF") {
+    same("a.off", "OFF\n5 3 0\n" + points + faces, 5);
+    same("b.off", "OFF 5 3 0\n" + points + faces, 5);
+  }
+  SECTION("ASCII PLY") {
+    same("a.ply",
+         "ply\nformat ascii 1.0\nelement vertex 5\nproperty double x\nproperty double y\n"
+         "property double z\nelement face 3\nproperty list uchar int vertex_indices\n"
+         "end_header\n" +
+             points + faces,
+         5);
+  }
+  SECTION("binary PLY") {
+    std::string binary =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 1\n"
+        "property list uchar int vertex_indices\nend_header\n";
+    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f})
+      binary.append(reinterpret_cast<const char*>(&v), 4);
+    binary += '\3';
+    for (std::int32_t i : {0, 1, 2}) binary.append(reinterpret_cast<const char*>(&i), 4);
+    same("binary.ply", binary, 3);
+  }
+  SECTION("Medit") {
+    // This one starts with Vertices: a mark stuck to it would hide the block.
+    same("a.mesh", std::string(kTetFile).substr(std::string(kTetFile).find("Vertices")), 5);
+    same("b.mesh", kTetFile, 5);
+  }
+  SECTION("TetGen .node and .ele") {
+    const std::string node = "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n";
+    const std::string ele = "2 4 0\n1 1 2 3 4\n2 2 5 3 4\n";
+    tmp.file("plain.node", node);
+    tmp.file("plain.ele", ele);
+    tmp.file("marked.node", bom + node);
+    tmp.file("marked.ele", bom + ele);
+    const Mesh plain = readMesh(tmp / "plain.node");
+    const Mesh marked = readMesh(tmp / "marked.ele");
+    CHECK(plain.numVertices() == 5);
+    CHECK(marked.positions() == plain.positions());
+    CHECK(marked.elements() == plain.elements());
+  }
+  SECTION("one mark, at the start: a second one is not skipped") {
+    const std::string p = tmp.file("twice.ply", bom + bom + "ply\nformat ascii 1.0\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p + ":1") && Catch::Contains("not a PLY file"));
+  }
+}
+
+TEST_CASE("OBJ: lines that start with no OBJ statement are ignored with one warning",
+          "[mesh][io]") {
+  TempDir tmp;
+  const std::string quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+  SECTION("statements diffreg does not use are read past silently") {
+    const std::string p = tmp.file(
+        "known.obj", "mtllib a.mtl\no thing\ng part\ns off\nusemtl m\n" + quad +
+                         "vt 0 0\nvn 0 0 1\nvp 0 0\nl 1 2\np 3\ncstype bspline\ndeg 3\n"
+                         "curv 0 1 1 2\ncurv2 1 2\nsurf 0 1 0 1 1 2\nparm u 0 1\ntrim 0 1 1\n"
+                         "hole 0 1 1\nscrv 0 1 1\nsp 1\nend\ncon 1 0 1 1\nbmat u 1\nstep 1\n"
+                         "mg 1 0.5\nbevel off\nc_interp off\nd_interp off\nlod 1\n"
+                         "maplib a.map\nusemap off\nshadow_obj s.obj\ntrace_obj t.obj\n"
+                         "ctech cparm 1\nstech cparma 1 1\ncall x.mod\ncsh -cmd\n"
+                         "f 1 2 3\nf 1 3 4\n");
+    Mesh mesh;
+    CHECK(stderrOf([&] { mesh = readMesh(p); }).empty());
+    CHECK(mesh.numVertices() == 4);
+    CHECK(mesh.numElements() == 2);
+  }
+  SECTION("unknown first words: the lines are not read, one warning names the first") {
+    const std::string p =
+        tmp.file("unknown.obj", "# V, v1 and a non-breaking space are no statements\n" + quad +
+                                    "V 9 9 9\nv1 9 9 9\n\xC2\xA0v 9 9 9\nvt 0 0\n"
+                                    "f 1 2 3\nf 1 3 4\n");
+    Mesh mesh;
+    const std::string err = stderrOf([&] { mesh = readMesh(p); });
+    CHECK(mesh.numVertices() == 4);  // the faces still refer to the file's v lines
+    CHECK(mesh.positions().row(3) == Eigen::RowVector3d(0, 1, 0));
+    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+    CHECK_THAT(err, Catch::StartsWith("diffreg: warning: " + p + ": ") &&
+                        Catch::Contains("3 lines") && Catch::Contains("line 6") &&
+                        Catch::Contains("'V'"));
+    const std::string q = tmp.file("nbsp.obj", "\xC2\xA0v 9 9 9\n" + quad + "f 1 2 3\nf 1 3 4\n");
+    const std::string nbsp = stderrOf([&] { readMesh(q); });
+    CHECK_THAT(nbsp, Catch::Contains(q + ": ") && Catch::Contains("1 line ") &&
+                         Catch::Contains("line 1") && Catch::Contains("'\\xc2\\xa0v'"));
+  }
 }
 
 TEST_CASE("ASCII PLY values are whitespace-separated: elements may span or share lines",
@@ -321,6 +449,109 @@ TEST_CASE("ASCII PLY values are whitespace-separated: elements may span or share
     CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
                Catch::Contains("short.ply:12") && Catch::Contains("face 1") &&
                    Catch::Contains("too few values"));
+  }
+}
+
+TEST_CASE("ASCII PLY integers are integers within their type; the format is 1.0", "[mesh][io]") {
+  TempDir tmp;
+  // Vertex properties `props` (after x y z), faces with `list` indices, `body` after the header.
+  const auto ply = [&](const std::string& props, const std::string& list, const std::string& body) {
+    return tmp.file("t.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\n"
+                    "property double y\nproperty double z\n" +
+                        props + "element face 1\nproperty list " + list +
+                        " vertex_indices\nend_header\n" + body);
+  };
+  const auto error = [&](const std::string& path) {
+    return messageOf<InvalidMesh>([&] { readMesh(path); });
+  };
+  SECTION("the ends of each type's range read as themselves") {
+    const std::string p =
+        ply("property char a\nproperty uchar b\nproperty short c\nproperty ushort d\n"
+            "property int e\nproperty uint f\nproperty int8 g\nproperty uint8 h\n",
+            "uint8 uint32",
+            "0 0 0 -128 255 -32768 65535 -2147483648 4294967295 -128 255\n"
+            "1 0 0 127 0 32767 0 2147483647 0 127 0\n0 1 0 +1 00 0 0 0 0 0 0\n3 0 1 2\n");
+    const Mesh mesh = readMesh(p);
+    CHECK(mesh.numVertices() == 3);
+    CHECK(mesh.elements() == (Eigen::MatrixXi(1, 3) << 0, 1, 2).finished());
+  }
+  SECTION("a value beyond its type names the file, line, element and property") {
+    const std::string p =
+        ply("property uchar red\n", "uchar int", "0 0 0 0\n1 0 0 300\n0 1 0 0\n3 0 1 2\n");
+    CHECK_THAT(error(p), Catch::Contains(p + ":12: vertex 1") && Catch::Contains("'300'") &&
+                             Catch::Contains("'red'") && Catch::Contains("uchar: 0..255"));
+    for (const auto& [type, value] :
+         std::vector<std::pair<std::string, std::string>>{{"char", "-129"},
+                                                          {"int8", "128"},
+                                                          {"uchar", "-1"},
+                                                          {"uint8", "256"},
+                                                          {"short", "32768"},
+                                                          {"int16", "-32769"},
+                                                          {"ushort", "65536"},
+                                                          {"uint16", "-1"},
+                                                          {"int", "2147483648"},
+                                                          {"int32", "-2147483649"},
+                                                          {"uint", "4294967296"},
+                                                          {"uint32", "-1"},
+                                                          {"int", "99999999999999999999999"}}) {
+      INFO(type << " " << value);
+      const std::string q = ply("property " + type + " v\n", "uchar int",
+                                "0 0 0 0\n1 0 0 0\n0 1 0 " + value + "\n3 0 1 2\n");
+      CHECK_THAT(error(q), Catch::Contains(q + ":13: vertex 2") &&
+                               Catch::Contains("'" + value + "' is out of range") &&
+                               Catch::Contains(type));
+    }
+  }
+  SECTION("a value that is no integer") {
+    for (const std::string value : {"2.5", "1.0", "1e0", "0x1", "one"}) {
+      INFO(value);
+      const std::string p =
+          ply("property int v\n", "uchar int", "0 0 0 " + value + "\n1 0 0 0\n0 1 0 0\n3 0 1 2\n");
+      CHECK_THAT(error(p), Catch::Contains(p + ":11: vertex 0") &&
+                               Catch::Contains("expected an integer for property 'v' (int)"));
+    }
+    // A face index of 2.5 used to be read as 2.
+    const std::string p = ply("", "uchar int", "0 0 0\n1 0 0\n0 1 0\n3 0 1 2.5\n");
+    CHECK_THAT(error(p), Catch::Contains(p + ":13: face 0") &&
+                             Catch::Contains("list 'vertex_indices' (int), got '2.5'"));
+  }
+  SECTION("list counts likewise") {
+    for (const std::string count : {"256", "3.0", "-3"}) {
+      INFO(count);
+      const std::string p = ply("", "uchar int", "0 0 0\n1 0 0\n0 1 0\n" + count + " 0 1 2\n");
+      CHECK_THAT(error(p), Catch::Contains(p + ":13: face 0 has a bad list length '" + count) &&
+                               Catch::Contains("uchar"));
+    }
+    const std::string p = ply("", "char int", "0 0 0\n1 0 0\n0 1 0\n128 0 1 2\n");
+    CHECK_THAT(error(p), Catch::Contains("'128'") && Catch::Contains("char: -128..127"));
+  }
+  SECTION("a binary count of a signed type is signed") {
+    std::string binary =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 1\n"
+        "property list char int vertex_indices\nend_header\n";
+    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f})
+      binary.append(reinterpret_cast<const char*>(&v), 4);
+    binary += '\xff';  // -1, not 255
+    binary += std::string(255 * 4, '\0');
+    const std::string p = tmp.file("signed.ply", binary);
+    CHECK_THAT(error(p), Catch::Contains(p + ": face 0 has a bad list length '-1'"));
+  }
+  SECTION("the format line is ascii, binary_little_endian or binary_big_endian 1.0") {
+    for (const std::string format :
+         {"format ascii 2.0", "format ascii 1", "format ascii", "format ascii 1.0 extra",
+          "format binary_little_endian 1.1", "format binary_big_endian 0.9", "format",
+          "format ASCII 1.0", "format ascii 1.0\nformat binary_little_endian 1.0"}) {
+      INFO(format);
+      const std::string p =
+          tmp.file("f.ply", "ply\n" + format +
+                                "\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                "property float z\nelement face 1\n"
+                                "property list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+      CHECK_THAT(error(p), Catch::Contains(p + ":") && Catch::Contains("format"));
+    }
   }
 }
 
@@ -417,6 +648,40 @@ TEST_CASE("Medit .mesh reading", "[mesh][io]") {
     const std::string p = tmp.file("inv.mesh", text);
     CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
                Catch::Contains(p) && Catch::Contains("tet 1 (0-based) is inverted"));
+  }
+  SECTION("a repeated tet is refused, whatever its vertex order") {
+    std::string text = kTetFile;  // tets 1 2 3 4 and 2 5 3 4 share the triangle 2 3 4
+    text.replace(text.find("Tetrahedra\n2\n"), 13, "Tetrahedra\n3\n1 2 3 4 0\n");
+    const std::string p = tmp.file("twice.mesh", text);
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("tets 0 and 1 (0-based)") &&
+                   Catch::Contains("same side") && Catch::Contains("repeated"));
+    // Alone, each of its triangles is on two tets: the sides tell the copies apart.
+    for (const char* copy : {"1 2 3 4 0", "2 1 4 3 0", "3 4 1 2 0"}) {
+      INFO(copy);
+      const std::string q = tmp.file("alone.mesh",
+                                     "Vertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n"
+                                     "Tetrahedra\n2\n1 2 3 4 0\n" +
+                                         std::string(copy) + "\n");
+      CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(q); }),
+                 Catch::Contains(q) && Catch::Contains("tets 0 and 1 (0-based)"));
+    }
+  }
+  SECTION("a triangle of three tets is refused, naming them") {
+    // Tets 2 and 3 both stand on the triangle 1 2 3 above z = 0, tet 1 below it.
+    const std::string p = tmp.file("three.mesh",
+                                   "Vertices\n6\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 -1 0\n"
+                                   "0 0 1 0\n0.2 0.2 2 0\nTetrahedra\n3\n1 3 2 4 0\n"
+                                   "1 2 3 5 0\n1 2 3 6 0\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),
+               Catch::Contains(p) && Catch::Contains("tets 0, 1 and 2 (0-based)") &&
+                   Catch::Contains("vertices 0, 1, 2;"));
+  }
+  SECTION("TetGen: a repeated tet is refused too") {
+    tmp.file("rep.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+    const std::string e = tmp.file("rep.ele", "2 4 0\n1 1 2 3 4\n2 1 2 3 4\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(e); }),
+               Catch::Contains("rep.ele") && Catch::Contains("tets 0 and 1 (0-based)"));
   }
   SECTION("a 2D Medit mesh is refused") {
     const std::string p = tmp.file("d2.mesh", "Dimension 2\nVertices\n0\n");

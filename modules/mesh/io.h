@@ -16,7 +16,8 @@ namespace diffreg {
 /// readFileLimited (regular files of at most limits::meshBytes).
 /// \throw IoError missing, unreadable, special or oversized file, unknown extension.
 /// \throw InvalidMesh malformed content, counts the file cannot hold, values beyond double,
-///        empty, out-of-range indices, bad polygons, degenerate elements, inverted tets
+///        empty, out-of-range indices, bad polygons, degenerate elements, inverted tets, a
+///        triangle shared by more than two tets or by two on the same side (a repeated tet)
 ///        (naming the file and the line or element).
 Mesh readMesh(const std::string& path);
 

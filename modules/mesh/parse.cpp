@@ -13,8 +13,10 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <iterator>
 #include <optional>
 
 namespace diffreg {
@@ -175,12 +177,51 @@ long long count(const std::string& where, std::string_view token, const std::str
   return *n;
 }
 
+/// `text` without a leading UTF-8 byte order mark, which some editors write at the start of
+/// text files (it would otherwise stick to the file's first word).
+std::string_view withoutBom(std::string_view text) {
+  constexpr std::string_view bom = "\xEF\xBB\xBF";
+  if (text.substr(0, bom.size()) == bom) text.remove_prefix(bom.size());
+  return text;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
 // OBJ
 
 namespace {
+
+/// The OBJ statements besides v and f (texture and normal vertices, groups, materials, free-form
+/// geometry, display attributes): read past without a warning.
+bool ignoredObjStatement(std::string_view keyword) {
+  if (keyword.size() == 2 && keyword[0] == 'v')  // vt, vn and vp: the common case first
+    return keyword[1] == 't' || keyword[1] == 'n' || keyword[1] == 'p';
+  static constexpr std::string_view kIgnored[] = {
+      "g",          "o",         "s",        "usemtl",   "mtllib", "l",      "p",
+      "cstype",     "deg",       "curv",     "curv2",    "surf",   "parm",   "trim",
+      "hole",       "scrv",      "sp",       "end",      "con",    "bmat",   "step",
+      "mg",         "bevel",     "c_interp", "d_interp", "lod",    "maplib", "usemap",
+      "shadow_obj", "trace_obj", "ctech",    "stech",    "call",   "csh"};
+  return std::find(std::begin(kIgnored), std::end(kIgnored), keyword) != std::end(kIgnored);
+}
+
+/// `word` for a message: at most 40 bytes, quoted, bytes other than printable ASCII as \xNN
+/// (a non-breaking space or a stray control character would not show).
+std::string visible(std::string_view word) {
+  std::string out;
+  for (const char c : word.substr(0, 40)) {
+    const auto b = static_cast<unsigned char>(c);
+    if (b > 0x20 && b < 0x7f) {
+      out += c;
+    } else {
+      char hex[5];
+      std::snprintf(hex, sizeof hex, "\\x%02x", b);
+      out += hex;
+    }
+  }
+  return "'" + out + (word.size() > 40 ? "...'" : "'");
+}
 
 /// parseObj's common case in one pass over the bytes, without a list of tokens per line: the
 /// same points, faces and line numbers as the general reading below, or nothing at the first
@@ -207,8 +248,15 @@ std::optional<RawMesh> parseObjFast(std::string_view text) {
     const char* const stop = hash ? hash : eol;
     const char* q = skipSpace(p, stop);
     p = eol + 1;
-    if (q + 1 == stop && (*q == 'v' || *q == 'f')) return std::nullopt;  // a bare "v" or "f"
-    if (q + 1 >= stop || !isSpace(q[1])) continue;  // not "v" or "f" with something after it
+    if (q == stop) continue;  // blank or a comment
+    const char* const keywordEnd = tokenEnd(q, stop);
+    if (keywordEnd != q + 1 || (*q != 'v' && *q != 'f')) {
+      // Other statements are skipped; a line that starts with none is left to the token-wise
+      // reading, which warns about it.
+      if (ignoredObjStatement(std::string_view(q, size_t(keywordEnd - q)))) continue;
+      return std::nullopt;
+    }
+    if (keywordEnd == stop) return std::nullopt;  // a bare "v" or "f"
     if (*q == 'v') {
       Eigen::Vector3d point;
       ++q;
@@ -256,18 +304,31 @@ std::optional<RawMesh> parseObjFast(std::string_view text) {
   return raw;
 }
 
+/// parseObjByTokens without the byte order mark.
+RawMesh parseObjLines(std::string_view text, const std::string& source);
+
 }  // namespace
 
 RawMesh parseObj(std::string_view text, const std::string& source) {
+  text = withoutBom(text);
   if (auto raw = parseObjFast(text)) return std::move(*raw);
-  return detail::parseObjByTokens(text, source);
+  return parseObjLines(text, source);
 }
 
 RawMesh detail::parseObjByTokens(std::string_view text, const std::string& source) {
+  return parseObjLines(withoutBom(text), source);
+}
+
+namespace {
+
+RawMesh parseObjLines(std::string_view text, const std::string& source) {
   Scanner s(text, source);
   RawMesh raw;
   raw.base = 1;
   std::vector<std::string_view> t;
+  long long unknown = 0;  // lines that start with no OBJ statement
+  int firstUnknownLine = 0;
+  std::string_view firstUnknown;
   while (s.line(t)) {
     if (t[0] == "v") {
       const long long id = static_cast<long long>(raw.points.size()) + 1;
@@ -289,10 +350,21 @@ RawMesh detail::parseObjByTokens(std::string_view text, const std::string& sourc
         face.ids.push_back(*id > 0 ? *id - 1 : n + *id);
       }
       raw.faces.push_back(std::move(face));
+    } else if (!ignoredObjStatement(t[0]) && unknown++ == 0) {
+      firstUnknownLine = s.lineNumber();
+      firstUnknown = t[0];
     }
+  }
+  if (unknown > 0) {
+    warn(source + ": ignored " + std::to_string(unknown) +
+         (unknown == 1 ? " line that starts" : " lines that start") +
+         " with no OBJ statement (first: line " + std::to_string(firstUnknownLine) + ", " +
+         visible(firstUnknown) + ")");
   }
   return raw;
 }
+
+}  // namespace
 
 // ---------------------------------------------------------------------------------------
 // OFF
@@ -363,6 +435,7 @@ RawMesh parseBinaryOff(std::string_view data, const std::string& source) {
 }  // namespace
 
 RawMesh parseOff(std::string_view text, const std::string& source) {
+  text = withoutBom(text);
   Scanner s(text, source);
   std::vector<std::string_view> t;
   if (!s.line(t)) throw InvalidMesh(source + ": empty file");
@@ -433,12 +506,19 @@ namespace {
 
 enum class PlyFormat { Ascii, Little, Big };
 
-struct PlyProperty {
+/// A scalar type: its size and kind, and its name as the header spells it (for messages).
+struct PlyType {
   std::string name;
-  int size = 0;          ///< bytes of the (item) type
+  int size = 0;          ///< bytes
   bool isFloat = false;  ///< float or double
   bool isSigned = true;
-  int countSize = 0;  ///< list: bytes of the count type (0: not a list)
+};
+
+struct PlyProperty {
+  std::string name;
+  PlyType type;   ///< of the value, or of a list's items
+  PlyType count;  ///< of a list's count (size 0: not a list)
+  bool isList() const { return count.size > 0; }
 };
 
 struct PlyElement {
@@ -450,12 +530,12 @@ struct PlyElement {
   std::uint64_t minBytes(PlyFormat format) const {
     std::uint64_t b = 0;
     for (const auto& p : props)
-      b += format == PlyFormat::Ascii ? 2 : (p.countSize ? p.countSize : p.size);
+      b += format == PlyFormat::Ascii ? 2 : (p.isList() ? p.count.size : p.type.size);
     return std::max<std::uint64_t>(b, 1);
   }
 };
 
-bool plyType(std::string_view t, PlyProperty& p) {
+bool plyType(std::string_view t, PlyType& p) {
   static const struct {
     const char* a;
     const char* b;
@@ -467,6 +547,7 @@ bool plyType(std::string_view t, PlyProperty& p) {
                {"float", "float32", 4, true, true}, {"double", "float64", 8, true, true}};
   for (const auto& e : types) {
     if (t == e.a || t == e.b) {
+      p.name = std::string(t);
       p.size = e.size;
       p.isFloat = e.isFloat;
       p.isSigned = e.isSigned;
@@ -546,16 +627,23 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
     }
     if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
     if (t[0] == "end_header") break;
-    if (t[0] == "format" && t.size() >= 2) {
+    if (t[0] == "format") {
+      // PLY 1.0 is the only version there is; another could mean anything.
+      if (haveFormat) throw InvalidMesh(where + ": a second PLY format line");
       haveFormat = true;
-      if (t[1] == "ascii")
+      if (t.size() == 3 && t[2] == "1.0" && t[1] == "ascii") {
         h.format = PlyFormat::Ascii;
-      else if (t[1] == "binary_little_endian")
+      } else if (t.size() == 3 && t[2] == "1.0" && t[1] == "binary_little_endian") {
         h.format = PlyFormat::Little;
-      else if (t[1] == "binary_big_endian")
+      } else if (t.size() == 3 && t[2] == "1.0" && t[1] == "binary_big_endian") {
         h.format = PlyFormat::Big;
-      else
-        throw InvalidMesh(where + ": unknown PLY format " + quote(t[1]));
+      } else {
+        std::string line;
+        for (const std::string_view w : t) line += (line.empty() ? "" : " ") + std::string(w);
+        throw InvalidMesh(where + ": unsupported PLY format line " + quote(line) +
+                          " (expected format ascii 1.0, binary_little_endian 1.0 or "
+                          "binary_big_endian 1.0)");
+      }
     } else if (t[0] == "element" && t.size() == 3) {
       PlyElement e;
       e.name = std::string(t[1]);
@@ -567,12 +655,10 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
       PlyProperty p;
       bool ok = false;
       if (t.size() == 5 && t[1] == "list") {
-        PlyProperty c;
-        ok = plyType(t[2], c) && !c.isFloat && plyType(t[3], p) && !p.isFloat;
-        p.countSize = c.size;
+        ok = plyType(t[2], p.count) && !p.count.isFloat && plyType(t[3], p.type) && !p.type.isFloat;
         p.name = std::string(t[4]);
       } else if (t.size() == 3) {
-        ok = plyType(t[1], p);
+        ok = plyType(t[1], p.type);
         p.name = std::string(t[2]);
       }
       if (!ok) throw InvalidMesh(where + ": bad PLY property line " + quote(l));
@@ -631,13 +717,20 @@ class PlyValues {
     return source_ + (ascii_ ? ":" + std::to_string(line()) : "") + ": " + what_;
   }
 
-  double next(int size, bool isFloat, bool isSigned) {
-    if (!ascii_) return bin_.value(size, isFloat, isSigned, what_);
+  /// Which value of a property next() reads.
+  enum class Part { Value, Item, Count };
+
+  /// The next value: of scalar property `prop`, an item of list `prop` or its count. ASCII
+  /// integers must be written as integers within their type's range.
+  double next(const PlyProperty& prop, Part part) {
+    const PlyType& type = part == Part::Count ? prop.count : prop.type;
+    if (!ascii_) return bin_.value(type.size, type.isFloat, type.isSigned, what_);
     if (!pending_ && !lines_.token(token_)) {
       throw InvalidMesh(where() + " has too few values (the file ends)");
     }
     pending_ = false;
     const std::string_view tok = token_;
+    if (!type.isFloat) return integer(tok, prop, part);
     double v = 0.0;
     const Parsed p = parseDouble(tok, v);
     if (p == Parsed::Bad) throw InvalidMesh(where() + ": expected a number, got " + quote(tok));
@@ -650,17 +743,46 @@ class PlyValues {
   /// The length of list `prop`: at most one item per two bytes (ASCII: a digit and a space) or
   /// per item size (binary) left, compared as doubles since an ASCII length may be any number.
   long long listLength(const PlyProperty& prop) {
-    const double n = next(prop.countSize, false, false);
+    const double n = next(prop, Part::Count);
     const double most = ascii_ ? static_cast<double>(lines_.remaining() / 2 + 1)
-                               : static_cast<double>(bin_.remaining() / prop.size + 1);
+                               : static_cast<double>(bin_.remaining() / prop.type.size + 1);
     if (!(n >= 0 && n <= most && n == std::floor(n))) {
-      throw InvalidMesh(where() + " has a bad list length " +
-                        quote(ascii_ ? token_ : std::string_view("(binary)")));
+      throw InvalidMesh(
+          where() + " has a bad list length " +
+          quote(ascii_ ? std::string(token_) : std::to_string(static_cast<long long>(n))));
     }
     return static_cast<long long>(n);
   }
 
  private:
+  double integer(std::string_view tok, const PlyProperty& prop, Part part) const {
+    const PlyType& type = part == Part::Count ? prop.count : prop.type;
+    const auto v = parseInt(tok);
+    const int bits = 8 * type.size;
+    const long long lo = type.isSigned ? -(1LL << (bits - 1)) : 0;
+    const long long hi = type.isSigned ? (1LL << (bits - 1)) - 1 : (1LL << bits) - 1;
+    if (v && *v >= lo && *v <= hi) return static_cast<double>(*v);
+    const std::string_view digits = tok.substr(!tok.empty() && (tok[0] == '-' || tok[0] == '+'));
+    const bool beyondLongLong =  // digits only, but too many for parseInt: out of range too
+        !v && !digits.empty() && digits.find_first_not_of("0123456789") == std::string_view::npos;
+    const std::string range = type.name + ": " + std::to_string(lo) + ".." + std::to_string(hi);
+    if (part == Part::Count) {
+      throw InvalidMesh(where() + " has a bad list length " + quote(tok) + " for list '" +
+                        prop.name + "' (" +
+                        (v || beyondLongLong ? "out of range for " + range
+                                             : "not an integer, the count is " + type.name) +
+                        ")");
+    }
+    const std::string name =
+        (part == Part::Value ? "property '" : "an item of list '") + prop.name + "'";
+    if (!v && !beyondLongLong) {
+      throw InvalidMesh(where() + ": expected an integer for " + name + " (" + type.name +
+                        "), got " + quote(tok));
+    }
+    throw InvalidMesh(where() + ": " + quote(tok) + " is out of range for " + name + " (" + range +
+                      ")");
+  }
+
   bool ascii_;
   int firstLine_;
   std::string source_;
@@ -679,7 +801,7 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
   const std::string where = source + ":" + std::to_string(e.line);
   if (vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
     throw InvalidMesh(where + ": the vertex element has no x, y and z");
-  if (face && (ids < 0 || !e.props[ids].countSize))
+  if (face && (ids < 0 || !e.props[ids].isList()))
     throw InvalidMesh(where + ": the face element has no vertex_indices list");
   for (long long k = 0; k < e.count; ++k) {
     in.start(e, k);
@@ -688,16 +810,16 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
     for (size_t i = 0; i < e.props.size(); ++i) {
       const PlyProperty& prop = e.props[i];
       const bool mine = face && static_cast<int>(i) == ids;
-      if (prop.countSize) {
+      if (prop.isList()) {
         const long long n = in.listLength(prop);
         if (mine) f.ids.reserve(static_cast<size_t>(std::min<long long>(n, kFaceReserve)));
         for (long long j = 0; j < n; ++j) {
-          const double id = in.next(prop.size, prop.isFloat, prop.isSigned);
+          const double id = in.next(prop, PlyValues::Part::Item);
           if (mine) f.ids.push_back(plyIndex(id));
         }
         continue;
       }
-      const double v = in.next(prop.size, prop.isFloat, prop.isSigned);
+      const double v = in.next(prop, PlyValues::Part::Value);
       for (int c = 0; c < 3; ++c)
         if (vertex && static_cast<int>(i) == xyz[c]) p[c] = v;
     }
@@ -712,6 +834,7 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
 }  // namespace
 
 RawMesh parsePly(std::string_view text, const std::string& source) {
+  text = withoutBom(text);
   const PlyHeader h = parsePlyHeader(text, source);
   std::uint64_t need = 0;
   const std::uint64_t have = text.size() - h.dataStart;
@@ -819,7 +942,7 @@ void readMeditTets(MeditTokens& f, TetMesh& tet, std::vector<int>& lines) {
 }  // namespace
 
 TetMesh parseMedit(std::string_view text, const std::string& source) {
-  MeditTokens f(text, source);
+  MeditTokens f(withoutBom(text), source);
   TetMesh tet;
   std::vector<int> tetLines;
   bool haveVertices = false, haveTets = false;
@@ -936,8 +1059,8 @@ void readTetgenTets(std::string_view text, const std::string& source, int firstI
 TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::string_view ele,
                     const std::string& eleSource) {
   TetMesh tet;
-  const int firstIndex = readTetgenNodes(node, nodeSource, tet);
-  readTetgenTets(ele, eleSource, firstIndex, tet);
+  const int firstIndex = readTetgenNodes(withoutBom(node), nodeSource, tet);
+  readTetgenTets(withoutBom(ele), eleSource, firstIndex, tet);
   return tet;
 }
 

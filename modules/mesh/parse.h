@@ -1,8 +1,9 @@
 // Parsers of the mesh file formats, from the file's bytes: OBJ, OFF (ASCII and binary), PLY
 // (ASCII and binary), Medit .mesh and TetGen .node/.ele. Coordinates are read in double
 // precision; counts are checked against the bytes left before anything is allocated, and
-// arrays grow only as elements are read. Every error is an InvalidMesh "source:line: ..."
-// (or "source: ..." for binary data, naming the element).
+// arrays grow only as elements are read. A leading UTF-8 byte order mark is skipped. Every
+// error is an InvalidMesh "source:line: ..." (or "source: ..." for binary data, naming the
+// element).
 #pragma once
 
 #include <diffreg/mesh/mesh.h>
@@ -39,11 +40,15 @@ struct RawMesh {
   int base = 0;  ///< the file's first vertex and face number in messages (OBJ: 1)
 };
 
+/// OBJ's v and f lines. The other OBJ statements (vt, vn, g, usemtl, free-form geometry, ...)
+/// are read past; lines that start with no OBJ statement are ignored with a warning that
+/// counts them and names the first.
 RawMesh parseObj(std::string_view text, const std::string& source);
 namespace detail {
 /// parseObj's general reading, line by line through a list of tokens. parseObj reads most
 /// files in one pass and falls back to this for the first line that pass cannot take (every
-/// error, for its message); tests compare the two.
+/// error, for its message, and every line with no OBJ statement, for the warning); tests
+/// compare the two.
 RawMesh parseObjByTokens(std::string_view text, const std::string& source);
 }  // namespace detail
 RawMesh parseOff(std::string_view text, const std::string& source);
