@@ -144,6 +144,9 @@ TEST_CASE("serve: headers given twice, and requests from other sites' pages", "[
                         "Sec-Fetch-Site: same-site\r\n\r\n") == "HTTP/1.1 403 Forbidden");
   CHECK(statusOf(s, "GET /api/state HTTP/1.1\r\n" + host + close +
                         "Origin: http://evil.example\r\n\r\n") == "HTTP/1.1 403 Forbidden");
+  // The page itself may be opened from a link on another site; its API may not.
+  CHECK(statusOf(s, "GET / HTTP/1.1\r\n" + host + close + "Sec-Fetch-Site: cross-site\r\n\r\n") ==
+        "HTTP/1.1 200 OK");
   // The page's own requests, and a typed address, are answered.
   CHECK(statusOf(s, "GET /api/state HTTP/1.1\r\n" + host + close +
                         "Sec-Fetch-Site: same-origin\r\nOrigin: " + own + "\r\n\r\n") ==
@@ -153,6 +156,57 @@ TEST_CASE("serve: headers given twice, and requests from other sites' pages", "[
   CHECK(statusOf(s, post(host + "Content-Type: application/json; charset=utf-8\r\nOrigin: " + own +
                          "\r\nSec-Fetch-Site: same-origin\r\n")) == "HTTP/1.1 200 OK");
   CHECK(s.handles() == 1);
+}
+
+TEST_CASE("serve: a refused request's body is not read as a request", "[serve][hostile]") {
+  // Another site's page may send any bytes as a text/plain body; refused for its Origin, the
+  // request must take its body with it, or the body would be answered as a request of its own
+  // (with this server's Host and no Origin).
+  Server s;
+  const std::string host = "Host: 127.0.0.1:" + std::to_string(s.port) + "\r\n";
+  const std::string inner =
+      "POST /api/handles HTTP/1.1\r\n" + host +
+      "Content-Type: application/json\r\nContent-Length: " + std::to_string(kHandle.size()) +
+      "\r\n\r\n" + kHandle;
+  for (const std::string& refusal :
+       {std::string("Origin: http://evil.example\r\n"),
+        std::string("Sec-Fetch-Site: cross-site\r\n"), host}) {  // the last: Host given twice
+    const std::string outer =
+        "POST /api/handles HTTP/1.1\r\n" + host + refusal +
+        "Content-Type: text/plain\r\nContent-Length: " + std::to_string(inner.size()) + "\r\n\r\n" +
+        inner;
+    const int fd = s.connectRaw();
+    REQUIRE(::send(fd, outer.data(), outer.size(), MSG_NOSIGNAL) ==
+            static_cast<ssize_t>(outer.size()));
+    std::string reply;
+    char buffer[4096];
+    for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)  // until the server closes
+      reply.append(buffer, static_cast<size_t>(n));
+    ::close(fd);
+    INFO(reply);
+    CHECK(reply.rfind("HTTP/1.1 40", 0) == 0);
+    CHECK(reply.find("HTTP/1.1 200") == std::string::npos);
+  }
+  CHECK(s.handles() == 0);
+}
+
+TEST_CASE("serve: requests sent together on one connection are all answered", "[serve]") {
+  Server s;
+  const std::string get =
+      "GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(s.port) + "\r\n\r\n";
+  const std::string both = get + get.substr(0, get.size() - 2) + "Connection: close\r\n\r\n";
+  const int fd = s.connectRaw();
+  REQUIRE(::send(fd, both.data(), both.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(both.size()));
+  std::string reply;
+  char buffer[4096];
+  for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
+    reply.append(buffer, static_cast<size_t>(n));
+  ::close(fd);
+  size_t answers = 0;
+  for (size_t at = reply.find("HTTP/1.1 200"); at != std::string::npos;
+       at = reply.find("HTTP/1.1 200", at + 1))
+    ++answers;
+  CHECK(answers == 2);
 }
 
 TEST_CASE("serve: a client that trickles header lines is closed at the deadline",

@@ -16,6 +16,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Set by closeAfterResponse() in the worker thread that is answering the request.
+thread_local bool t_closeAfterResponse = false;
+
 /// poll() for one event, retried on EINTR; true when it came within `ms`.
 bool waitFor(socket_t sock, short event, int ms) {
   pollfd p{sock, event, 0};
@@ -46,10 +49,18 @@ void addressOf(socket_t sock, bool peer, std::string& ip, int& port) {
 class DeadlineStream : public httplib::Stream {
  public:
   DeadlineStream(socket_t sock, std::chrono::milliseconds readTimeout,
-                 std::chrono::milliseconds writeTimeout)
-      : sock_(sock), readTimeout_(readTimeout), writeTimeout_(writeTimeout) {}
+                 std::chrono::milliseconds writeTimeout, std::chrono::milliseconds answerTime)
+      : sock_(sock),
+        readTimeout_(readTimeout),
+        writeTimeout_(writeTimeout),
+        answerTime_(answerTime) {}
 
-  void startRequest(Clock::time_point deadline) { deadline_ = deadline; }
+  void startRequest(Clock::time_point deadline) {
+    deadline_ = deadline;
+    answerDeadline_ = Clock::time_point::max();
+  }
+  /// Bytes received and not yet read: the start of a next request.
+  bool buffered() const { return begin_ < end_; }
   /// A read has failed (the deadline, a second of silence, or the peer's end): the request was
   /// cut off, and nothing after it on this connection is a request.
   bool failed() const { return failed_; }
@@ -60,7 +71,13 @@ class DeadlineStream : public httplib::Stream {
     return begin_ < end_ || waitFor(sock_, POLLIN, millisecondsLeft());
   }
   bool is_writable() const override {
-    return waitFor(sock_, POLLOUT, static_cast<int>(writeTimeout_.count()));
+    // A response must be taken within answerTime of its first byte: a client that reads a few
+    // bytes now and then holds no worker for longer.
+    const auto left =
+        std::chrono::ceil<std::chrono::milliseconds>(answerDeadline_ - Clock::now()).count();
+    if (left <= 0) return false;
+    return waitFor(sock_, POLLOUT,
+                   static_cast<int>(std::min<long long>(left, writeTimeout_.count())));
   }
   ssize_t read(char* ptr, size_t size) override {
     if (begin_ == end_) {
@@ -84,6 +101,7 @@ class DeadlineStream : public httplib::Stream {
     return static_cast<ssize_t>(n);
   }
   ssize_t write(const char* ptr, size_t size) override {
+    if (answerDeadline_ == Clock::time_point::max()) answerDeadline_ = Clock::now() + answerTime_;
     if (!is_writable()) return -1;
     ssize_t n;
     do n = ::send(sock_, ptr, size, MSG_NOSIGNAL);
@@ -107,14 +125,17 @@ class DeadlineStream : public httplib::Stream {
   }
 
   socket_t sock_;
-  std::chrono::milliseconds readTimeout_, writeTimeout_;
+  std::chrono::milliseconds readTimeout_, writeTimeout_, answerTime_;
   Clock::time_point deadline_ = Clock::time_point::max();
+  Clock::time_point answerDeadline_ = Clock::time_point::max();
   char buffer_[4096];
   size_t begin_ = 0, end_ = 0;
   bool failed_ = false;
 };
 
 }  // namespace
+
+void DeadlineServer::closeAfterResponse() { t_closeAfterResponse = true; }
 
 bool DeadlineServer::nextRequestArrives(socket_t sock) const {
   // In slices, so that stop() (which closes the listening socket) ends idle connections soon.
@@ -132,12 +153,16 @@ bool DeadlineServer::process_and_close_socket(socket_t sock) {
   using std::chrono::milliseconds;
   const auto ms = [](time_t sec, time_t usec) { return milliseconds(sec * 1000 + usec / 1000); };
   DeadlineStream stream(sock, ms(read_timeout_sec_, read_timeout_usec_),
-                        ms(write_timeout_sec_, write_timeout_usec_));
+                        ms(write_timeout_sec_, write_timeout_usec_), requestTime_);
   bool ok = false;
-  for (size_t left = keep_alive_max_count_; left > 0 && nextRequestArrives(sock); --left) {
+  // A request already read along with the previous one (pipelined) needs no wait.
+  for (size_t left = keep_alive_max_count_;
+       left > 0 && (stream.buffered() || nextRequestArrives(sock)); --left) {
     stream.startRequest(Clock::now() + requestTime_);
     bool closed = false;
+    t_closeAfterResponse = false;
     ok = process_request(stream, left == 1, closed, nullptr);
+    if (t_closeAfterResponse) break;
     // A request cut off (at its deadline, or by silence) was answered 400; what the client
     // trickles after it must not start another request, and deadline, on this connection.
     if (!ok || closed || stream.failed()) break;

@@ -104,7 +104,7 @@ HttpServer::HttpServer(Api& api, ServerOptions options)
         }
         const int status = std::stoi(refusal.substr(0, 3));
         send(errorResponse(status, refusal.substr(4)), res);
-        res.set_header("Connection", "close");
+        DeadlineServer::closeAfterResponse();  // its body, unread, is no next request
         return httplib::Server::HandlerResponse::Handled;
       });
   const std::string pattern = R"(/api/.*)";
@@ -142,6 +142,8 @@ HttpServer::HttpServer(Api& api, ServerOptions options)
     else if (res.status != 404)
       message = "request failed (HTTP " + std::to_string(res.status) + ")";
     send(errorResponse(res.status, message), res);
+    // httplib's own errors may leave a body unread (413 reads none of it): not a next request.
+    DeadlineServer::closeAfterResponse();
     return httplib::Server::HandlerResponse::Handled;
   };
   svr.set_error_handler(onError);
@@ -177,18 +179,20 @@ std::string HttpServer::refuse(const httplib::Request& req) const {
     return "403 the Host header does not name this server (127.0.0.1:" + port + ")";
   // Another site's page: browsers send Origin with every write and with scripted reads, and
   // Sec-Fetch-Site with every request (an <img> of /api/export/image.png included); scripts
-  // (curl, tests) usually send neither.
-  if (req.has_header("Origin")) {
+  // (curl, tests) usually send neither. The page itself may be reached from anywhere (a link
+  // on another site); the API only from the page.
+  const bool write = req.method != "GET" && req.method != "HEAD";
+  const bool api = req.path.rfind("/api/", 0) == 0;
+  if ((write || api) && req.has_header("Origin")) {
     const std::string origin = lower(req.get_header_value("Origin"));
     if (origin != "http://127.0.0.1:" + port && origin != "http://localhost:" + port)
       return "403 requests are accepted from this server's own page only";
   }
-  if (req.has_header("Sec-Fetch-Site")) {
+  if (api && req.has_header("Sec-Fetch-Site")) {
     const std::string site = lower(req.get_header_value("Sec-Fetch-Site"));
     if (site != "same-origin" && site != "none")
       return "403 requests are accepted from this server's own page only";
   }
-  const bool write = req.method != "GET" && req.method != "HEAD";
   if (!write) return "";
   if (req.has_header("Content-Length") && req.has_header("Transfer-Encoding"))
     return "400 the request has both Content-Length and Transfer-Encoding";
