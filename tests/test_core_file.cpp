@@ -8,10 +8,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 
 namespace fs = std::filesystem;
 using namespace diffreg;
@@ -70,9 +72,14 @@ TEST_CASE("a signal waits while SignalsDeferred is alive", "[core][file]") {
   const int status = inChild([&] {
     removeTemporariesOnSignal();
     registerTemporary(tmp.string());
+    // A second thread, as the solver's and the BLAS's: a signal sent to the process may be
+    // taken by it rather than by the thread in the deferred step.
+    std::thread other([] { std::this_thread::sleep_for(std::chrono::seconds(2)); });
+    other.detach();
     {
       const SignalsDeferred deferred;
-      ::raise(SIGINT);  // pending until the block ends
+      ::kill(::getpid(), SIGINT);  // to the process, as Ctrl-C
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
       std::ofstream(marker) << "the step finished";
       unregisterTemporary(tmp.string());  // as a rename into place would
     }

@@ -122,11 +122,23 @@ TemporarySlot g_temporaries[kMaxTemporaries];
 
 constexpr int kCleanupSignals[] = {SIGINT, SIGTERM, SIGHUP};
 
-void removeTemporariesAndDie(int signal) {
+// SignalsDeferred: how many are alive (in any thread), and a signal that came meanwhile.
+std::atomic<int> g_deferDepth{0};
+std::atomic<int> g_pendingSignal{0};
+
+void removeTemporariesAndRaise(int signal) {
   for (TemporarySlot& slot : g_temporaries)
     if (slot.state.load(std::memory_order_acquire) == 2) ::unlink(slot.path);
   ::signal(signal, SIG_DFL);
-  ::raise(signal);
+  ::raise(signal);  // the default action ends the whole process, from whichever thread
+}
+
+void onCleanupSignal(int signal) {
+  // Any thread may take a signal sent to the process, so deferral is a count every thread
+  // reads, not a signal mask. Recorded first, then acted on here only when no deferred step
+  // runs; one that ends meanwhile acts on it itself.
+  g_pendingSignal.store(signal);
+  if (g_deferDepth.load() == 0) removeTemporariesAndRaise(signal);
 }
 
 }  // namespace
@@ -153,22 +165,18 @@ void unregisterTemporary(const std::string& path) {
 
 void removeTemporariesOnSignal() {
   struct sigaction action {};
-  action.sa_handler = removeTemporariesAndDie;
+  action.sa_handler = onCleanupSignal;
+  action.sa_flags = SA_RESTART;  // a deferred signal returns: interrupted calls go on
   sigemptyset(&action.sa_mask);
   for (int s : kCleanupSignals) sigaddset(&action.sa_mask, s);
   for (int s : kCleanupSignals) ::sigaction(s, &action, nullptr);
 }
 
-SignalsDeferred::SignalsDeferred() {
-  static_assert(sizeof(sigset_t) <= sizeof(saved_), "sigset_t does not fit");
-  sigset_t block;
-  sigemptyset(&block);
-  for (int s : kCleanupSignals) sigaddset(&block, s);
-  ::pthread_sigmask(SIG_BLOCK, &block, reinterpret_cast<sigset_t*>(saved_));
-}
+SignalsDeferred::SignalsDeferred() { g_deferDepth.fetch_add(1); }
 
 SignalsDeferred::~SignalsDeferred() {
-  ::pthread_sigmask(SIG_SETMASK, reinterpret_cast<const sigset_t*>(saved_), nullptr);
+  if (g_deferDepth.fetch_sub(1) != 1) return;
+  if (const int signal = g_pendingSignal.exchange(0)) removeTemporariesAndRaise(signal);
 }
 
 void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body) {
@@ -184,12 +192,13 @@ void writeFileAtomically(const std::string& path, const std::function<void(std::
   for (int attempt = 0; attempt < 100 && fd < 0; ++attempt) {
     tmp = path + ".tmp-";
     for (int i = 0; i < 6; ++i) tmp += alphabet[rng() % (sizeof(alphabet) - 1)];
+    const SignalsDeferred deferred;  // created and registered, or neither
     fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0 && errno != EEXIST) throw fail(std::strerror(errno));
+    if (fd >= 0) registerTemporary(tmp);
   }
   if (fd < 0) throw fail("no free temporary name");
   ::close(fd);
-  registerTemporary(tmp);
   struct Unregister {
     const std::string& path;
     ~Unregister() { unregisterTemporary(path); }

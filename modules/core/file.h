@@ -49,17 +49,15 @@ void registerTemporary(const std::string& path);
 void unregisterTemporary(const std::string& path);
 void removeTemporariesOnSignal();
 
-/// Blocks SIGINT, SIGTERM and SIGHUP for its lifetime: a step that must not be cut in the
-/// middle (renaming a set of outputs into place) finishes first.
+/// While one is alive (in any thread), SIGINT, SIGTERM and SIGHUP under
+/// removeTemporariesOnSignal() wait: a step that must not be cut in the middle (renaming a set
+/// of outputs into place) finishes first, and the last one to end acts on the signal.
 class SignalsDeferred {
  public:
   SignalsDeferred();
   ~SignalsDeferred();
   SignalsDeferred(const SignalsDeferred&) = delete;
   SignalsDeferred& operator=(const SignalsDeferred&) = delete;
-
- private:
-  unsigned char saved_[128];  // the previous sigset_t
 };
 
 /// The path of the file `name` in the directory of the running executable (its real location,
