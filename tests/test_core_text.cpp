@@ -41,6 +41,18 @@ TEST_CASE("terminalLine escapes what a terminal would act on and bounds the leng
   // C1 controls (U+009B is a one-byte CSI on some terminals) and bytes that are not UTF-8.
   CHECK(terminalLine("csi\xc2\x9b") == "csi\\xc2\\x9b");
   CHECK(terminalLine("bad\xff\xfe") == "bad\\xff\\xfe");
+  // A right-to-left override would show "gpj.exe" as "exe.jpg"; a line separator breaks lines.
+  CHECK(terminalLine("a\xe2\x80\xae"
+                     "b") ==
+        "a\\xe2\\x80\\xae"
+        "b");
+  CHECK(terminalLine("a\xe2\x81\xa6"
+                     "b\xe2\x80\xa8"
+                     "c") ==
+        "a\\xe2\\x81\\xa6"
+        "b\\xe2\\x80\\xa8"
+        "c");
+  CHECK(terminalLine("\xe2\x80\x94") == "\xe2\x80\x94");  // an em dash stays
   // Printable UTF-8 is kept as it is.
   CHECK(terminalLine("Zhu, Li, Zhang, Song \xce\xb2 = 0.5 \xe2\x80\x94 ok") ==
         "Zhu, Li, Zhang, Song \xce\xb2 = 0.5 \xe2\x80\x94 ok");

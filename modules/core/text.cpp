@@ -58,11 +58,18 @@ std::string terminalLine(const std::string& text, size_t maxBytes) {
   while (i < text.size() && out.size() < maxBytes) {
     const size_t n = sequence(text, i);
     const auto c = static_cast<unsigned char>(text[i]);
-    // U+0080..U+009F (C1 controls) are 0xc2 0x80..0x9f in UTF-8.
-    const bool c1 = n == 2 && c == 0xc2 && static_cast<unsigned char>(text[i + 1]) < 0xa0;
+    // U+0080..U+009F (C1 controls) are 0xc2 0x80..0x9f in UTF-8; the direction marks and
+    // overrides (U+200E, U+200F, U+202A..U+202E, U+2066..U+2069) and the line and paragraph
+    // separators (U+2028, U+2029), which reorder or break what a terminal shows, 0xe2 ...
+    const auto b = [&](size_t k) { return static_cast<unsigned char>(text[i + k]); };
+    const bool c1 = n == 2 && c == 0xc2 && b(1) < 0xa0;
+    const bool layout =
+        n == 3 && c == 0xe2 &&
+        ((b(1) == 0x80 && ((b(2) >= 0x8e && b(2) <= 0x8f) || (b(2) >= 0xa8 && b(2) <= 0xae))) ||
+         (b(1) == 0x81 && b(2) >= 0xa6 && b(2) <= 0xa9));
     if (n == 1 && (c == '\n' || c == '\r' || c == '\t')) {
       out += ' ';
-    } else if (n == 0 || (n == 1 && (c < 0x20 || c == 0x7f)) || c1) {
+    } else if (n == 0 || (n == 1 && (c < 0x20 || c == 0x7f)) || c1 || layout) {
       for (size_t k = 0; k < std::max<size_t>(n, 1); ++k) {
         char buf[8];
         std::snprintf(buf, sizeof buf, "\\x%02x", static_cast<unsigned char>(text[i + k]));

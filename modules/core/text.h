@@ -11,9 +11,11 @@ namespace diffreg {
 std::string escapeNonUtf8(const std::string& bytes);
 
 /// `text` made fit for one line of a terminal: bytes that are not UTF-8, control characters
-/// (an ESC would start a terminal escape sequence) and C1 controls written as "\xNN", line
-/// breaks and tabs as spaces, and anything past `maxBytes` cut at a character boundary and
-/// replaced by "... (N more bytes)". A message that quotes a 15 MB value stays readable.
+/// (an ESC would start a terminal escape sequence), C1 controls, direction overrides and line
+/// separators written as "\xNN" byte by byte, line breaks and tabs as spaces, and the text cut
+/// at a character boundary once the line has `maxBytes` bytes (the last character or escape may
+/// pass it by a few), the rest replaced by "... (N more bytes)". A message that quotes a 15 MB
+/// value stays readable.
 std::string terminalLine(const std::string& text, size_t maxBytes = 2000);
 
 }  // namespace diffreg
