@@ -114,3 +114,11 @@ TEST_CASE("writeFileAtomically's temporary goes with an interrupt", "[core][file
   CHECK(std::distance(fs::directory_iterator(target.parent_path()), fs::directory_iterator()) == 1);
   fs::remove_all(target.parent_path());
 }
+
+TEST_CASE("byteText never rounds to a size it is not", "[core][file]") {
+  CHECK(byteText(300) == "300 bytes");
+  CHECK(byteText(std::uint64_t(128) << 20) == "128 MiB");
+  CHECK(byteText((std::uint64_t(3) << 19)) == "1.5 MiB");
+  // One byte over 128 MiB is not "128.0 MiB, more than the limit of 128 MiB".
+  CHECK(byteText((std::uint64_t(128) << 20) + 1) == "134217729 bytes");
+}

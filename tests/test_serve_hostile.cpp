@@ -133,6 +133,9 @@ TEST_CASE("serve: headers given twice, and requests from other sites' pages", "[
   CHECK(statusOf(s, "POST /api/handles HTTP/1.1\r\n" + host + json + close +
                         "Content-Length: 5\r\nTransfer-Encoding: chunked\r\n\r\n" + "0\r\n\r\n") ==
         "HTTP/1.1 400 Bad Request");
+  // A byte count is digits (httplib read "-5" as a huge count).
+  CHECK(statusOf(s, "POST /api/handles HTTP/1.1\r\n" + host + json + close +
+                        "Content-Length: -5\r\n\r\n" + kHandle) == "HTTP/1.1 400 Bad Request");
   // Only application/json itself (with parameters) is JSON.
   CHECK(statusOf(s, post(host + "Content-Type: application/jsonx\r\n")) ==
         "HTTP/1.1 415 Unsupported Media Type");

@@ -11,6 +11,7 @@
 #include <atomic>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -70,6 +71,10 @@ std::string byteText(std::uint64_t bytes) {
     std::snprintf(buf, sizeof buf, "%llu MiB", static_cast<unsigned long long>(bytes >> 20));
   } else {
     std::snprintf(buf, sizeof buf, "%.1f MiB", static_cast<double>(bytes) / (1 << 20));
+    // Never a whole number of MiB that it is not ("128.0 MiB" for a byte more than 128 MiB).
+    const double shown = std::strtod(buf, nullptr);
+    if (shown == std::floor(shown))
+      std::snprintf(buf, sizeof buf, "%llu bytes", static_cast<unsigned long long>(bytes));
   }
   return buf;
 }
