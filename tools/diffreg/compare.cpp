@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -153,6 +154,8 @@ po::options_description compareOptions() {
 struct CompareSettings {
   int width = 0, height = 0;
   Step weights, deform;
+  std::optional<Step> rbf;     ///< --rbf: a fourth column
+  std::optional<double> beta;  ///< --beta; else the peak of the weights
   std::vector<std::string> outputs;
 };
 
@@ -173,11 +176,11 @@ CompareSettings compareSettings(const po::variables_map& vm) {
       throw UsageError(std::string("compare: --deform must not set '") + key +
                        "': each variant sets it (use --beta for the uniform one)");
   if (vm.count("beta")) {
-    const double beta = vm["beta"].as<double>();
-    if (!(beta >= 0.0 && beta <= 1.0))
-      throw UsageError("compare: --beta " + formatNumber(beta) + " is not in [0, 1]");
+    s.beta = vm["beta"].as<double>();
+    if (!(*s.beta >= 0.0 && *s.beta <= 1.0))
+      throw UsageError("compare: --beta " + formatNumber(*s.beta) + " is not in [0, 1]");
   }
-  if (vm.count("rbf")) parseStep(vm["rbf"].as<std::string>(), "--rbf");  // checked before work
+  if (vm.count("rbf")) s.rbf = parseStep(vm["rbf"].as<std::string>(), "--rbf");
   s.outputs = checkTableOutputs(vm, "compare");
   return s;
 }
@@ -206,9 +209,9 @@ double peakWeight(const Document& weighted, const Document& doc) {
 }
 
 /// The columns: no, uniform (with `beta`) and non-uniform regularization, and with --rbf the
-/// RBF weights. \throw UsageError for an unknown --rbf filter.
-std::vector<Variant> compareVariants(const po::variables_map& vm, const Step& weightsStep,
-                                     double beta) {
+/// RBF weights.
+std::vector<Variant> compareVariants(const CompareSettings& s, double beta) {
+  const Step& weightsStep = s.weights;
   std::vector<Variant> variants(3);
   variants[0].name = "none";
   variants[0].title = "no regularization";
@@ -221,10 +224,10 @@ std::vector<Variant> compareVariants(const po::variables_map& vm, const Step& we
   variants[2].title = "non-uniform (" + weightsStep.filter + ")";
   variants[2].regularization = "nonuniform";
   variants[2].weights = {weightsStep};
-  if (vm.count("rbf")) {
+  if (s.rbf) {
     Variant rbf;
     rbf.name = "rbf";
-    rbf.weights = {parseStep(vm["rbf"].as<std::string>(), "--rbf")};
+    rbf.weights = {*s.rbf};
     rbf.title = "non-uniform (" + rbf.weights[0].filter + ")";
     rbf.regularization = "nonuniform";
     variants.push_back(rbf);
@@ -277,8 +280,8 @@ int runCompare(int argc, char** argv) {
       Document::load(vm["input"].as<std::string>(), vm["handles"].as<std::string>());
   const Document weighted = weightedRest(doc, s.weights);
   const double peak = peakWeight(weighted, doc);
-  const double beta = vm.count("beta") ? vm["beta"].as<double>() : std::min(peak, 1.0);
-  std::vector<Variant> variants = compareVariants(vm, s.weights, beta);
+  const double beta = s.beta.value_or(std::min(peak, 1.0));
+  std::vector<Variant> variants = compareVariants(s, beta);
   runVariants(variants, doc, s.deform);
 
   writeTableOutputs(
