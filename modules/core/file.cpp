@@ -222,10 +222,7 @@ void writeFileAtomically(const std::string& path, const std::function<void(std::
     const int err = errno;
     if (fd >= 0) ::close(fd);
     if (!synced) throw fail(std::string("sync failed: ") + std::strerror(err));
-    // A signal between the rename and the unregistration must not remove the renamed file.
-    SignalsDeferred deferred;
     if (std::rename(tmp.c_str(), path.c_str()) != 0) throw fail(std::strerror(errno));
-    unregisterTemporary(tmp);
   } catch (const Error&) {
     std::remove(tmp.c_str());
     throw;

@@ -196,13 +196,12 @@ std::string HttpServer::refuse(const httplib::Request& req) const {
   if (!write) return "";
   if (req.has_header("Content-Length") && req.has_header("Transfer-Encoding"))
     return "400 the request has both Content-Length and Transfer-Encoding";
+  const std::string length = req.get_header_value("Content-Length");
   if (req.has_header("Content-Length")) {
-    const std::string length = req.get_header_value("Content-Length");
     if (length.empty() || length.find_first_not_of("0123456789") != std::string::npos)
       return "400 Content-Length must be a decimal byte count";
     if (length.size() > 18) return "413 the request body is larger than the limit";
   }
-  const std::string length = req.get_header_value("Content-Length");
   const bool body = std::strtoull(length.c_str(), nullptr, 10) > 0 ||
                     req.has_header("Transfer-Encoding");
   // The media type itself, without parameters such as "; charset=utf-8".
