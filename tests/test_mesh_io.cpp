@@ -59,6 +59,19 @@ const char* kTetFile =
     "1 2 3 4 0\n2 5 3 4 0\n"
     "End\n";
 
+/// A little-endian binary PLY of the unit triangle's three float vertices and one face whose
+/// vertex list has a count of type `countType`; the face's count and indices follow.
+std::string binaryTrianglePly(const std::string& countType) {
+  std::string binary =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list " +
+      countType + " int vertex_indices\nend_header\n";
+  for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f})
+    binary.append(reinterpret_cast<const char*>(&v), 4);
+  return binary;
+}
+
 double totalVolume(const Mesh& mesh) {
   const Eigen::MatrixXd p = mesh.positions();
   double v = 0.0;
@@ -358,12 +371,7 @@ TEST_CASE("a leading UTF-8 byte order mark is skipped in every text format", "[m
          5);
   }
   SECTION("binary PLY") {
-    std::string binary =
-        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
-        "property float y\nproperty float z\nelement face 1\n"
-        "property list uchar int vertex_indices\nend_header\n";
-    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f})
-      binary.append(reinterpret_cast<const char*>(&v), 4);
+    std::string binary = binaryTrianglePly("uchar");
     binary += '\3';
     for (std::int32_t i : {0, 1, 2}) binary.append(reinterpret_cast<const char*>(&i), 4);
     same("binary.ply", binary, 3);
@@ -527,12 +535,7 @@ TEST_CASE("ASCII PLY integers are integers within their type; the format is 1.0"
     CHECK_THAT(error(p), Catch::Contains("'128'") && Catch::Contains("char: -128..127"));
   }
   SECTION("a binary count of a signed type is signed") {
-    std::string binary =
-        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
-        "property float y\nproperty float z\nelement face 1\n"
-        "property list char int vertex_indices\nend_header\n";
-    for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, 0.f})
-      binary.append(reinterpret_cast<const char*>(&v), 4);
+    std::string binary = binaryTrianglePly("char");
     binary += '\xff';  // -1, not 255
     binary += std::string(255 * 4, '\0');
     const std::string p = tmp.file("signed.ply", binary);

@@ -98,9 +98,9 @@ TEST_CASE("serve refuses foreign hosts, foreign origins and non-JSON writes", "[
 
 namespace {
 
-/// Sends `request` on a raw connection and returns the reply's status line (the server closes
-/// the connection after it: the requests below say Connection: close).
-std::string statusOf(const Server& s, const std::string& request) {
+/// Sends `request` on a raw connection and returns everything the server sends until it closes
+/// the connection (after Connection: close, a refusal, or a second of silence).
+std::string replyTo(const Server& s, const std::string& request) {
   const int fd = s.connectRaw();
   REQUIRE(::send(fd, request.data(), request.size(), MSG_NOSIGNAL) ==
           static_cast<ssize_t>(request.size()));
@@ -109,6 +109,12 @@ std::string statusOf(const Server& s, const std::string& request) {
   for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
     reply.append(buffer, static_cast<size_t>(n));
   ::close(fd);
+  return reply;
+}
+
+/// The status line of replyTo(s, request).
+std::string statusOf(const Server& s, const std::string& request) {
+  const std::string reply = replyTo(s, request);
   return reply.substr(0, reply.find("\r\n"));
 }
 
@@ -178,14 +184,7 @@ TEST_CASE("serve: a refused request's body is not read as a request", "[serve][h
         "POST /api/handles HTTP/1.1\r\n" + host + refusal +
         "Content-Type: text/plain\r\nContent-Length: " + std::to_string(inner.size()) + "\r\n\r\n" +
         inner;
-    const int fd = s.connectRaw();
-    REQUIRE(::send(fd, outer.data(), outer.size(), MSG_NOSIGNAL) ==
-            static_cast<ssize_t>(outer.size()));
-    std::string reply;
-    char buffer[4096];
-    for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)  // until the server closes
-      reply.append(buffer, static_cast<size_t>(n));
-    ::close(fd);
+    const std::string reply = replyTo(s, outer);
     INFO(reply);
     CHECK(reply.rfind("HTTP/1.1 40", 0) == 0);
     CHECK(reply.find("HTTP/1.1 200") == std::string::npos);
@@ -198,13 +197,7 @@ TEST_CASE("serve: requests sent together on one connection are all answered", "[
   const std::string get =
       "GET /api/state HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(s.port) + "\r\n\r\n";
   const std::string both = get + get.substr(0, get.size() - 2) + "Connection: close\r\n\r\n";
-  const int fd = s.connectRaw();
-  REQUIRE(::send(fd, both.data(), both.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(both.size()));
-  std::string reply;
-  char buffer[4096];
-  for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
-    reply.append(buffer, static_cast<size_t>(n));
-  ::close(fd);
+  const std::string reply = replyTo(s, both);
   size_t answers = 0;
   for (size_t at = reply.find("HTTP/1.1 200"); at != std::string::npos;
        at = reply.find("HTTP/1.1 200", at + 1))
