@@ -48,8 +48,8 @@ class DeformationSession {
   /// Seconds a solve(), solveFrom() or resume() of the iterative energies may take, counted from
   /// the call (a first factorization included; 0, the default: no limit): the run stops after
   /// the first iteration that leaves less of them than it took itself (one iteration at least;
-  /// a prediction from the last iteration: one with more line-search steps than it can still
-  /// overrun them),
+  /// a prediction from the last iteration, so an iteration with more line-search steps than
+  /// that one can still overrun them),
   /// unconverged as at its iteration cap, and resume() continues it with the same steps. For
   /// interactive use (the editor answers within it and iterates on while idle); where it stops
   /// depends on the machine's speed.

@@ -60,10 +60,9 @@ struct RbfSettings {
 
 /// The editor's time budget per update (EditParams::seconds): a drag's iterations take at most
 /// about a quarter of a second on any mesh (a run stops before an iteration predicted, from the
-/// last one, to overrun
-/// it; one iteration at least, plus one iteration of the reference and the maps; a new
-/// factorization or weights solve, and relaxing the energy of a shape that has just converged,
-/// come on top), and the shape is refined while idle.
+/// last one, to overrun it; one iteration at least, plus one iteration of the reference and the
+/// maps; a new factorization or weights solve, and relaxing the energy of a shape that has just
+/// converged, come on top), and the shape is refined while idle.
 constexpr double kEditorSeconds = 0.25;
 
 /// Everything about an edit that is not a handle.
