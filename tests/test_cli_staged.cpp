@@ -55,3 +55,23 @@ TEST_CASE("one output under two spellings is staged once", "[cli][hostile]") {
   CHECK(canonicalTarget(tmp / "a.ply") ==
         canonicalTarget((tmp.path / "x" / ".." / "a.ply").string()));
 }
+
+TEST_CASE("an output that is a symbolic link stays one", "[cli][hostile]") {
+  TempDir tmp;
+  fs::create_directories(tmp.path / "data");
+  const std::string real = tmp.file("data/real.ply", "old");
+  const std::string link = tmp / "out.ply";
+  fs::create_symlink("data/real.ply", link);
+  {
+    StagedOutputs staged;
+    staged.stageText(link, "new");
+    // The link and the file it leads to are one output.
+    CHECK_THROWS_AS(staged.stage(real), InvalidParameter);
+    staged.commit();
+  }
+  CHECK(fs::is_symlink(link));
+  CHECK(read(real) == "new");
+  // No temporary or backup is left: out.ply and data/ beside each other, real.ply alone in data/.
+  CHECK(tmp.entries() == 2);
+  CHECK(std::distance(fs::directory_iterator(tmp.path / "data"), fs::directory_iterator()) == 1);
+}

@@ -122,3 +122,40 @@ TEST_CASE("byteText never rounds to a size it is not", "[core][file]") {
   // One byte over 128 MiB is not "128.0 MiB, more than the limit of 128 MiB".
   CHECK(byteText((std::uint64_t(128) << 20) + 1) == "134217729 bytes");
 }
+
+TEST_CASE("writeFileAtomically writes through a symbolic link and keeps it", "[core][file]") {
+  const fs::path dir = scratch("links");
+  fs::remove_all(dir);
+  fs::create_directories(dir / "data");
+  const auto read = [](const fs::path& p) {
+    std::ifstream in(p);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const auto write = [](const fs::path& p, const std::string& text) {
+    writeFileAtomically(p.string(), [&text](std::ostream& out) { out << text; });
+  };
+  // A relative link to a file in another directory, and a link to that link.
+  std::ofstream(dir / "data" / "mesh.ply") << "old";
+  fs::create_symlink("data/mesh.ply", dir / "link.ply");
+  fs::create_symlink("link.ply", dir / "link2.ply");
+  write(dir / "link2.ply", "new");
+  CHECK(fs::is_symlink(dir / "link2.ply"));
+  CHECK(fs::is_symlink(dir / "link.ply"));
+  CHECK(read(dir / "data" / "mesh.ply") == "new");
+  CHECK(writeTarget((dir / "link2.ply").string()) == (dir / "data" / "mesh.ply").string());
+  // A dangling link: its file is created.
+  fs::create_symlink("data/fresh.ply", dir / "fresh.ply");
+  write(dir / "fresh.ply", "made");
+  CHECK(fs::is_symlink(dir / "fresh.ply"));
+  CHECK(read(dir / "data" / "fresh.ply") == "made");
+  // A loop of links is refused, and nothing is written.
+  fs::create_symlink("b.ply", dir / "a.ply");
+  fs::create_symlink("a.ply", dir / "b.ply");
+  CHECK_THROWS_WITH(write(dir / "a.ply", "x"),
+                    Catch::Contains("too many levels of symbolic links"));
+  CHECK(fs::is_symlink(dir / "a.ply"));
+  // No temporary is left anywhere.
+  for (const auto& entry : fs::recursive_directory_iterator(dir))
+    CHECK(entry.path().filename().string().find(".tmp") == std::string::npos);
+  fs::remove_all(dir);
+}

@@ -184,10 +184,24 @@ SignalsDeferred::~SignalsDeferred() {
   if (const int signal = g_pendingSignal.exchange(0)) removeTemporariesAndRaise(signal);
 }
 
-void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body) {
-  const auto fail = [&path](const std::string& reason) {
-    return IoError("cannot write '" + path + "': " + reason);
+std::string writeTarget(const std::string& path) {
+  namespace fs = std::filesystem;
+  fs::path p(path);
+  for (int links = 0; links <= 40; ++links) {
+    std::error_code ec;
+    if (!fs::is_symlink(fs::symlink_status(p, ec))) return p.string();
+    const fs::path to = fs::read_symlink(p, ec);
+    if (ec) return p.string();  // gone meanwhile: the write creates it
+    p = to.is_absolute() ? to : p.parent_path() / to;
+  }
+  throw IoError("cannot write '" + path + "': too many levels of symbolic links");
+}
+
+void writeFileAtomically(const std::string& shown, const std::function<void(std::ostream&)>& body) {
+  const auto fail = [&shown](const std::string& reason) {
+    return IoError("cannot write '" + shown + "': " + reason);
   };
+  const std::string path = writeTarget(shown);
   // A new name beside the target (O_EXCL: never an existing file or a planted link).
   static const char alphabet[] = "abcdefghijklmnopqrstuvwxyz0123456789";
   std::random_device rd;

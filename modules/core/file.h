@@ -31,10 +31,17 @@ std::string readFileLimited(const std::string& path, const std::string& what, st
 /// that hand the file to a library). \throw IoError as readFileLimited.
 std::uint64_t checkInputFile(const std::string& path, const std::string& what, std::uint64_t limit);
 
+/// The file that a write to `path` replaces: `path` itself, or, when `path` is a symbolic link,
+/// the file its links lead to (a relative link read against its own directory; the last one may
+/// name a file that does not exist yet), so that writing through a link keeps the link.
+/// \throw IoError "cannot write 'path': too many levels of symbolic links" after 40 links.
+std::string writeTarget(const std::string& path);
+
 /// Writes the file `path` all or nothing: `body` writes a new temporary file beside it
 /// ("<path>.tmp-XXXXXX", in the same directory so that the rename is atomic), which is flushed,
 /// synced to disk and renamed onto `path`. Readers see the old file or the whole new one, never
-/// a part. On any failure the temporary is removed and `path` is left as it was.
+/// a part. On any failure the temporary is removed and `path` is left as it was. A `path` that is
+/// a symbolic link stays one: the file it leads to is written (writeTarget).
 /// \throw IoError "cannot write 'path': ..." when creating, writing, syncing or renaming fails or
 ///        `body` throws a standard exception; an Error thrown by `body` passes unchanged.
 void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body);

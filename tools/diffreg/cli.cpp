@@ -119,7 +119,7 @@ std::string canonicalTarget(const std::string& path) {
 }
 
 void checkWritableDir(const std::string& path) {
-  fs::path dir = fs::path(path).parent_path();
+  fs::path dir = fs::path(writeTarget(path)).parent_path();  // where the temporary goes
   if (dir.empty()) dir = ".";
   std::error_code ec;
   if (!fs::is_directory(dir, ec))
@@ -165,7 +165,7 @@ void ProgressPrinter::operator()(const std::string& filter, int iteration, doubl
 }
 
 std::string StagedOutputs::stage(const std::string& path) {
-  const fs::path p(path);
+  const fs::path p(writeTarget(path));  // a link stays a link: the file it leads to is written
   const std::string canonical = canonicalTarget(path);
   for (const Entry& e : staged_)
     if (e.canonical == canonical)
@@ -174,7 +174,7 @@ std::string StagedOutputs::stage(const std::string& path) {
   const std::string tmp = (p.parent_path() / ("." + p.stem().string() + ".tmp" +
                                               std::to_string(::getpid()) + p.extension().string()))
                               .string();
-  staged_.push_back({tmp, path, canonical});
+  staged_.push_back({tmp, path, p.string(), canonical});
   registerTemporary(tmp);  // an interrupted run removes it (removeTemporariesOnSignal)
   return tmp;
 }
@@ -204,26 +204,26 @@ void StagedOutputs::commit() {
   for (const Entry& e : staged_) {
     std::string backup;
     std::error_code ec;
-    const fs::file_status st = fs::symlink_status(e.target, ec);
+    const fs::file_status st = fs::symlink_status(e.file, ec);
     if (fs::is_directory(st)) {  // became one after the checks: never moved aside
       undo();
       throw IoError("cannot write '" + e.target + "': it is a directory");
     }
     if (fs::exists(st)) {
       backup = e.temporary + ".old";
-      if (std::rename(e.target.c_str(), backup.c_str()) != 0) {
+      if (std::rename(e.file.c_str(), backup.c_str()) != 0) {
         const int err = errno;
         undo();
         throw IoError("cannot write '" + e.target + "': " + std::strerror(err));
       }
     }
-    if (std::rename(e.temporary.c_str(), e.target.c_str()) != 0) {
+    if (std::rename(e.temporary.c_str(), e.file.c_str()) != 0) {
       const int err = errno;
-      if (!backup.empty()) std::rename(backup.c_str(), e.target.c_str());
+      if (!backup.empty()) std::rename(backup.c_str(), e.file.c_str());
       undo();
       throw IoError("cannot write '" + e.target + "': " + std::strerror(err));
     }
-    done.emplace_back(e.target, backup);
+    done.emplace_back(e.file, backup);
   }
   for (const auto& [target, backup] : done)
     if (!backup.empty()) std::remove(backup.c_str());

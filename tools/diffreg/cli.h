@@ -87,7 +87,8 @@ class ProgressPrinter {
 };
 
 /// Files written under temporary names beside their targets (same extension, so writers that
-/// pick a format by it still do), renamed into place together by commit(). Whatever was not
+/// pick a format by it still do), renamed into place together by commit(). A target that is a
+/// symbolic link stays one: the file it leads to is replaced. Whatever was not
 /// committed is removed, so a failed run leaves no new or clobbered file.
 class StagedOutputs {
  public:
@@ -107,7 +108,10 @@ class StagedOutputs {
 
  private:
   struct Entry {
-    std::string temporary, target, canonical;
+    std::string temporary;
+    std::string target;  ///< as given (for messages)
+    std::string file;    ///< what is replaced: the target, or where its links lead (writeTarget)
+    std::string canonical;
   };
   std::vector<Entry> staged_;
 };
