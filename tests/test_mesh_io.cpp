@@ -541,6 +541,17 @@ TEST_CASE("ASCII PLY integers are integers within their type; the format is 1.0"
     const std::string p = tmp.file("signed.ply", binary);
     CHECK_THAT(error(p), Catch::Contains(p + ": face 0 has a bad list length '-1'"));
   }
+  SECTION("a list that the end of the file cuts off says so") {
+    std::string binary = binaryTrianglePly("uchar");
+    binary += '\3';
+    binary += std::string(4, '\0');  // one of its three indices
+    const std::string p = tmp.file("cut.ply", binary);
+    CHECK_THAT(error(p), Catch::Contains(p + ": face 0: its list 'vertex_indices' of 3 items runs "
+                                             "past the end of the file"));
+    const std::string q = ply("", "uchar int", "0 0 0\n1 0 0\n0 1 0\n200 0 1 2\n");
+    CHECK_THAT(error(q),
+               Catch::Contains(q + ":13: face 0: its list 'vertex_indices' of 200 items"));
+  }
   SECTION("the format line is ascii, binary_little_endian or binary_big_endian 1.0") {
     for (const std::string format :
          {"format ascii 2.0", "format ascii 1", "format ascii", "format ascii 1.0 extra",

@@ -746,6 +746,11 @@ class PlyValues {
     const double n = next(prop, Part::Count);
     const double most = ascii_ ? static_cast<double>(lines_.remaining() / 2 + 1)
                                : static_cast<double>(bin_.remaining() / prop.type.size + 1);
+    if (n > most && n == std::floor(n) && n < 1e18) {  // a fine length, but the file is short
+      throw InvalidMesh(where() + ": its list '" + prop.name + "' of " +
+                        std::to_string(static_cast<long long>(n)) +
+                        " items runs past the end of the file");
+    }
     if (!(n >= 0 && n <= most && n == std::floor(n))) {
       throw InvalidMesh(
           where() + " has a bad list length " +
