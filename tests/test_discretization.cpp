@@ -208,3 +208,26 @@ TEST_CASE("Degenerate elements are rejected, naming the element", "[discretizati
   bad << 0, 1, 9;
   CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, bad), Catch::Contains("out of range"));
 }
+
+TEST_CASE("A mesh too large or too small for double precision is refused by its size",
+          "[discretization][hostile]") {
+  // At 1e60 a tet's squared volume overflows, at 1e-60 it underflows: the solve used to end in
+  // "the solution is not finite" without saying why.
+  for (const Mesh& shape :
+       {makeRectangle(2.0, 1.0, 4, 2), makeSphere(1.0, 8, 6), makeTetBox(3.0, 1.0, 1.0, 3, 1, 1)}) {
+    for (const double scale : {1e60, 1e-60, 1e31, 1e-31}) {
+      INFO(toString(shape.kind()) << " scaled by " << scale);
+      CHECK_THROWS_WITH(Discretization(shape.kind(), shape.positions() * scale, shape.elements()),
+                        Catch::Contains("discretization: the mesh's size (bounding-box diagonal") &&
+                            Catch::Contains("is outside [1e-30, 1e30]"));
+    }
+    // Inside the range the rest shape is as scale-free as ever: measures scale by its power.
+    const Discretization unit(shape.kind(), shape.positions(), shape.elements());
+    for (const double scale : {1e29, 1e-29}) {
+      INFO(toString(shape.kind()) << " scaled by " << scale);
+      const Discretization d(shape.kind(), shape.positions() * scale, shape.elements());
+      const double power = std::pow(scale, shape.kind() == MeshKind::Tet ? 3 : 2);
+      CHECK(d.measures().isApprox(unit.measures() * power, 1e-12));
+    }
+  }
+}

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 
 namespace diffreg {
@@ -38,6 +39,17 @@ Eigen::MatrixXd Discretization::restFrame(int e) const {
 
 namespace {
 
+// The bounding-box diagonal of the positions the elements use (indices checked).
+double usedDiagonal(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements) {
+  Eigen::RowVectorXd lo = Eigen::RowVectorXd::Constant(positions.cols(), INFINITY), hi = -lo;
+  for (Eigen::Index j = 0; j < elements.cols(); ++j)
+    for (Eigen::Index e = 0; e < elements.rows(); ++e) {
+      lo = lo.cwiseMin(positions.row(elements(e, j)));
+      hi = hi.cwiseMax(positions.row(elements(e, j)));
+    }
+  return (hi - lo).norm();
+}
+
 void checkElements(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements,
                    int k) {
   const Eigen::Index n = positions.rows(), m = elements.rows();
@@ -53,6 +65,15 @@ void checkElements(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen:
         throw InvalidMesh("discretization: element " + std::to_string(e) + " has vertex index " +
                           std::to_string(elements(e, i)) + " out of range [0, " +
                           std::to_string(n) + ")");
+  const double size = usedDiagonal(positions, elements);
+  if (size > 0.0 && !(size >= kMinMeshSize && size <= kMaxMeshSize)) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.3g", size);
+    throw InvalidMesh(std::string("discretization: the mesh's size (bounding-box diagonal ") +
+                      text +
+                      ") is outside [1e-30, 1e30], where its areas and volumes stay within "
+                      "double precision; scale it");
+  }
 }
 
 // Tets: the facet records of every tet (for adjacency), sorted, and the mean length of the

@@ -25,12 +25,19 @@ struct Facet {
   int size = 0;                   ///< 2 for an edge, 3 for a triangle
 };
 
+/// The sizes a Discretization is built for: the bounding-box diagonal of the vertices that the
+/// elements use lies in [kMinMeshSize, kMaxMeshSize]. Beyond them, products of four to six
+/// coordinates (squared areas, volumes and their squares) leave double precision's range, and a
+/// solve would end in infinities or zeros.
+inline constexpr double kMinMeshSize = 1e-30, kMaxMeshSize = 1e30;
+
 class Discretization {
  public:
   /// Builds everything from the rest mesh. On triangle meshes the neighbouring triangles are
   /// found by walking the OpenMesh mesh's edges (each interior edge's two half-edges give its
   /// two faces); on tet meshes by sorting the tets' facets.
-  /// \throw InvalidMesh for a degenerate (zero-measure) element, naming it.
+  /// \throw InvalidMesh for a degenerate (zero-measure) element, naming it, and for a mesh whose
+  ///        size is outside [kMinMeshSize, kMaxMeshSize].
   explicit Discretization(const Mesh& mesh);
   /// The same for `mesh`'s elements at other positions (n x 3), e.g. its rest shape after the
   /// mesh has been deformed.
