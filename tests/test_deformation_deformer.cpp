@@ -628,3 +628,50 @@ TEST_CASE(
     CHECK(s.regularizationWeights().facet == expected.facet);
   }
 }
+
+TEST_CASE("a solve that is not finite names the thinnest element, in the mesh's numbering",
+          "[deformer][hostile]") {
+  // A strip of 2500 unit squares; the lower triangle of square 5 is split at a point 1e-13
+  // above the midpoint of its bottom edge, over a sliver.
+  const int columns = 2500;
+  Eigen::MatrixXd P(2 * (columns + 1) + 1, 3);
+  for (int i = 0; i <= columns; ++i) {
+    P.row(i) << i, 0, 0;
+    P.row(columns + 1 + i) << i, 1, 0;
+  }
+  const int s = 2 * (columns + 1), split = 5;
+  P.row(s) << split + 0.5, 1e-13, 0;
+  std::vector<Eigen::Vector3i> faces;
+  for (int i = 0; i < columns; ++i) {
+    const int a = i, b = i + 1, c = columns + 2 + i, d = columns + 1 + i;
+    if (i == split) {
+      faces.emplace_back(a, s, c);
+      faces.emplace_back(s, b, c);
+    } else {
+      faces.emplace_back(a, b, c);
+    }
+    faces.emplace_back(a, c, d);
+  }
+  faces.emplace_back(split, split + 1, s);  // the sliver
+  // Out of order: the regularized session then orders them for locality (kLocalityMinElements).
+  std::shuffle(faces.begin(), faces.end(), std::mt19937(3));
+  const Eigen::Vector3i sliver(split, split + 1, s);
+  const auto at = std::find(faces.begin(), faces.end(), sliver) - faces.begin();
+  Eigen::MatrixXi F(static_cast<Eigen::Index>(faces.size()), 3);
+  for (size_t k = 0; k < faces.size(); ++k) F.row(static_cast<Eigen::Index>(k)) = faces[k];
+  const Discretization disc(MeshKind::Planar, P, F);
+  const std::vector<int> handles = {0, columns + 1, columns, 2 * columns + 1};
+  Eigen::MatrixXd targets(4, 2);
+  targets << 0, 0, 0, 1, columns, 2, columns, 3;
+  REQUIRE(F.rows() >= kLocalityMinElements);
+  REQUIRE(!localityElementOrder(disc).empty());
+  for (const Regularization r : {Regularization::None, Regularization::Uniform}) {
+    INFO(toString(r));  // uniform: the session orders the elements for locality
+    DeformationOptions o;
+    o.regularization = r;
+    CHECK_THROWS_AS(deform(disc, o, handles, targets), NonFiniteSolution);
+    CHECK_THROWS_WITH(deform(disc, o, handles, targets),
+                      Catch::Contains("the thinnest triangle is " + std::to_string(at) +
+                                      " (0-based; area / longest edge^2 5e-14"));
+  }
+}

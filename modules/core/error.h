@@ -31,6 +31,13 @@ class SingularSystem : public Error {
   using Error::Error;
 };
 
+/// A solve or an energy came out not finite although the system factored: in practice a mesh of
+/// nearly degenerate elements.
+class NonFiniteSolution : public SingularSystem {
+ public:
+  using SingularSystem::SingularSystem;
+};
+
 /// A file could not be opened, read or written.
 class IoError : public Error {
  public:

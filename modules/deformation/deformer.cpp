@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 namespace diffreg {
@@ -186,7 +187,7 @@ double DeformationCore::local(const Eigen::MatrixXd& X, const Stacked* previous,
   const double E = localStep(model_, system_.regularizer(), options_.localStep, X, previous, t,
                              scratch_, reference);
   if (!std::isfinite(E))
-    throw SingularSystem("deformation: the energy is not finite (degenerate solution)");
+    throw NonFiniteSolution("deformation: the energy is not finite (degenerate solution)");
   return E;
 }
 
@@ -370,6 +371,20 @@ DeformationResult DeformationCore::resume(int maxIterations, double relTolerance
   return run(maxIterations, relTolerance, nullptr, true);
 }
 
+void DeformationCore::throwWithThinnest(const NonFiniteSolution& e) const {
+  // A matrix of sliver elements (cotangents of 1e13) factors but does not solve: name the
+  // thinnest element, in the caller's numbering.
+  const Discretization::Thinnest thin = disc_.thinnestElement();
+  const int element = elementOrder_.empty() ? thin.element : elementOrder_[thin.element];
+  const bool tet = disc_.kind() == MeshKind::Tet;
+  char ratio[32];
+  std::snprintf(ratio, sizeof ratio, "%.2g", thin.ratio);
+  throw NonFiniteSolution(std::string(e.what()) + "; the thinnest " + (tet ? "tet" : "triangle") +
+                          " is " + std::to_string(element) + " (0-based; " +
+                          (tet ? "volume / longest edge^3 " : "area / longest edge^2 ") + ratio +
+                          ", where a regular one has " + (tet ? "0.118" : "0.433") + ")");
+}
+
 DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
                                        const Eigen::MatrixXd* initial, bool resume) {
   if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
@@ -382,40 +397,44 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
                           std::chrono::duration<double>(std::min(budget_, 1e9)));
   DeformationResult result;
   Eigen::MatrixXd X;
-  if (!model_.iterative()) {
-    X = restSolve();
-    result.energies.push_back(local(X, nullptr, t_));
-    result.iterations = 1;
-    report(result);
-  } else {
-    result.converged = false;
-    double E = 0.0;
-    const bool continuing = resume && resumable_;
-    // t_ leaves lastX_ from here until the run ends: a run that throws (a non-finite energy, a
-    // solver error, the progress callback) leaves nothing to continue and no last targets.
-    resumable_ = false;
-    if (continuing) {
-      X = lastX_;
-      E = lastE_;
-      result.initialGuess = "continued";
-      result.energies.push_back(E);
+  try {
+    if (!model_.iterative()) {
+      X = restSolve();
+      result.energies.push_back(local(X, nullptr, t_));
+      result.iterations = 1;
+      report(result);
     } else {
-      stationarityDue_ = false;
-      lbfgs_ = LbfgsHistory(std::max(1, options_.history));
-      anderson_ = AndersonMixer(std::max(1, options_.history));
-      E = start(initial, X, result);
+      result.converged = false;
+      double E = 0.0;
+      const bool continuing = resume && resumable_;
+      // t_ leaves lastX_ from here until the run ends: a run that throws (a non-finite energy, a
+      // solver error, the progress callback) leaves nothing to continue and no last targets.
+      resumable_ = false;
+      if (continuing) {
+        X = lastX_;
+        E = lastE_;
+        result.initialGuess = "continued";
+        result.energies.push_back(E);
+      } else {
+        stationarityDue_ = false;
+        lbfgs_ = LbfgsHistory(std::max(1, options_.history));
+        anderson_ = AndersonMixer(std::max(1, options_.history));
+        E = start(initial, X, result);
+      }
+      if (options_.localStep == LocalStep::Reference)
+        iterateReference(maxIterations, relTolerance, X, E, result);
+      else if (options_.acceleration == Acceleration::Lbfgs)
+        descendLbfgs(maxIterations, relTolerance, X, E, result);
+      else
+        descend(maxIterations, relTolerance, X, E, result);
+      lastX_ = X;
+      lastE_ = result.energies.back();
+      resumable_ = true;
+      // As localStep decides: the exact step sweeps coupled targets, every other fits each alone.
+      ownFits_ = options_.localStep != LocalStep::Exact || !system_.regularizer().coupling();
     }
-    if (options_.localStep == LocalStep::Reference)
-      iterateReference(maxIterations, relTolerance, X, E, result);
-    else if (options_.acceleration == Acceleration::Lbfgs)
-      descendLbfgs(maxIterations, relTolerance, X, E, result);
-    else
-      descend(maxIterations, relTolerance, X, E, result);
-    lastX_ = X;
-    lastE_ = result.energies.back();
-    resumable_ = true;
-    // As localStep decides: the exact step sweeps coupled targets, every other fits each alone.
-    ownFits_ = options_.localStep != LocalStep::Exact || !system_.regularizer().coupling();
+  } catch (const NonFiniteSolution& e) {
+    throwWithThinnest(e);
   }
   result.positions = std::move(X);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();

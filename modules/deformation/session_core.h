@@ -3,6 +3,7 @@
 // DeformationSession (deformer.h) owns one and forwards to it.
 #pragma once
 
+#include <diffreg/core/error.h>
 #include <diffreg/deformation/anderson.h>
 #include <diffreg/deformation/energy.h>
 #include <diffreg/deformation/handle_basis.h>
@@ -51,6 +52,8 @@ class DeformationCore {
   // solve() (initial = nullptr) and solveFrom().
   DeformationResult run(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial,
                         bool resume = false);
+  // Rethrows `e` naming the thinnest element (mesh numbering).
+  [[noreturn]] void throwWithThinnest(const NonFiniteSolution& e) const;
   // The first shape of the iterative energies and its local step (t_, the energy).
   double start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X, DeformationResult& result);
   // Local/global from there: descent (exact local step) or the reference loop.

@@ -289,6 +289,21 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   buildComponents(P3);
 }
 
+Discretization::Thinnest Discretization::thinnestElement() const {
+  Thinnest thinnest;
+  const int k = elementSize(), power = k - 1;
+  for (Eigen::Index e = 0; e < elements_.rows(); ++e) {
+    double longest = 0.0;
+    for (int a = 0; a < k; ++a)
+      for (int b = a + 1; b < k; ++b)
+        longest =
+            std::max(longest, (rest_.row(elements_(e, a)) - rest_.row(elements_(e, b))).norm());
+    const double ratio = measures_(e) / std::pow(longest, power);
+    if (thinnest.element < 0 || ratio < thinnest.ratio) thinnest = {static_cast<int>(e), ratio};
+  }
+  return thinnest;
+}
+
 Discretization Discretization::withElementOrder(const std::vector<int>& order) const {
   const Eigen::Index m = elements_.rows(), size = elements_.cols();
   if (static_cast<Eigen::Index>(order.size()) != m)

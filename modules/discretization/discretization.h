@@ -95,6 +95,15 @@ class Discretization {
   double meanEdgeLength() const { return meanEdge_; }
   double boundingBoxDiagonal() const { return diagonal_; }
 
+  /// The thinnest element: the smallest measure over the longest edge's length to the power of
+  /// the element's dimension (an equilateral triangle 0.43, a regular tet 0.118; a sliver near
+  /// 0). For error messages: computed on each call.
+  struct Thinnest {
+    int element = -1;
+    double ratio = 0.0;
+  };
+  Thinnest thinnestElement() const;
+
   /// This discretization with its elements stored in another order: element i of the copy is
   /// element order[i] of this one (elements, measures, gradients, normals), and each facet
   /// joins the same two elements under their new indices, in the same facet order. The vertex

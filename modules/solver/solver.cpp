@@ -312,7 +312,7 @@ Eigen::MatrixXd SpdSolver::solve(const Eigen::MatrixXd& B) {
   stats_.solves += 1;
   stats_.solveSeconds += timer.seconds();
   if (!X.allFinite())
-    throw SingularSystem("solver: the solution is not finite (the system is singular)");
+    throw NonFiniteSolution("solver: the solution is not finite (the system is singular)");
   return X;
 }
 
