@@ -1173,6 +1173,7 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
   SplittingImporter importer(tri);
   for (const auto& p : raw.points) importer.add_vertex(OpenMesh::Vec3d(p[0], p[1], p[2]));
   int polygons = 0, triangles = 0;
+  unsigned long long polygonWork = 0;  // against kMaxPolygonWork
   std::vector<OpenMesh::VertexHandle> corners(3);
   for (size_t k = 0; k < raw.faces.size(); ++k) {
     const RawFace& f = raw.faces[k];
@@ -1182,6 +1183,15 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
     } else {
       const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") +
                                 ": face " + std::to_string(k + raw.base);
+      polygonWork += static_cast<unsigned long long>(f.ids.size()) * f.ids.size();
+      if (polygonWork > kMaxPolygonWork) {
+        throw InvalidMesh(where +
+                          ": too many large polygons (their squared corner counts add "
+                          "up to " +
+                          std::to_string(polygonWork) + " so far, more than " +
+                          std::to_string(kMaxPolygonWork) +
+                          ", about 4,000 faces of 256 corners); triangulate the file first");
+      }
       const std::vector<std::array<long long, 3>> tris =
           triangulatePolygon(raw.points, f.ids, where);
       ++polygons;
