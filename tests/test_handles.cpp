@@ -147,6 +147,13 @@ TEST_CASE("handle file errors name the file and the handle", "[handles]") {
   const Mesh mesh = grid();
   CHECK_THAT(error("{\"handles\": [ {\"vertices\": [1,] } ]}", mesh),
              Contains("malformed JSON") && Contains("line 1, column"));
+  // Not the last of two (nlohmann's default), nor what comes before a NUL byte.
+  CHECK_THAT(error(R"({"handles": [{"vertices": [1]}], "handles": []})", mesh),
+             Contains("malformed JSON: key 'handles' twice in one object"));
+  CHECK_THAT(error(R"({"handles": [{"vertices": [1], "vertices": [2]}]})", mesh),
+             Contains("key 'vertices' twice"));
+  CHECK_THAT(error(std::string(R"({"handles": [{"vertices": [1]}]})") + '\0' + "}", mesh),
+             Contains("malformed JSON: a NUL byte at offset 32"));
   CHECK_THAT(error("[1, 2]", mesh), Contains("\"handles\""));
   CHECK_THAT(error("{\"handle\": []}", mesh), Contains("\"handles\""));
   CHECK_THAT(error(R"({"handles": [], "extra": 1})", mesh), Contains("unknown key 'extra'"));

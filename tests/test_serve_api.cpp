@@ -238,7 +238,9 @@ TEST_CASE("serve API: bad requests get a 4xx and leave the session unchanged", "
       {"PATCH", "/api/params", R"({"energy": "elastic"})", 422},
       {"PATCH", "/api/params", R"({"solve": "lu"})", 422},
       {"PATCH", "/api/params", R"({"beta": "high"})", 400},
-      {"PATCH", "/api/params", "{not json", 400},  // malformed JSON
+      {"PATCH", "/api/params", "{not json", 400},                      // malformed JSON
+      {"PATCH", "/api/params", R"({"beta": 0.2, "beta": 0.9})", 400},  // a key twice
+      {"PATCH", "/api/params", std::string(R"({"beta": 0.2})") + '\0' + "x", 400},  // a NUL
       {"PATCH", "/api/params", "[1, 2]", 400},
       {"PATCH", "/api/params", "", 400},
       {"PUT", "/api/handles", R"({"handles": [{"vertices": [5000]}]})", 422},

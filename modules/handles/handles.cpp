@@ -3,6 +3,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
+#include <diffreg/core/json.h>
 #include <diffreg/core/text.h>
 #include <diffreg/core/xml.h>
 
@@ -69,13 +70,9 @@ class Parser {
   HandleSet parse(const std::string& text) {
     json root;
     try {
-      root = json::parse(text);
-    } catch (const json::exception& e) {  // parse errors, number overflow
-      std::string what = e.what();
-      const size_t bracket = what.find("] ");
-      if (bracket != std::string::npos) what = what.substr(bracket + 2);
-      std::replace(what.begin(), what.end(), '\n', ' ');
-      throw InvalidParameter(source_ + ": malformed JSON: " + what);
+      root = parseJsonStrictly(text);
+    } catch (const std::invalid_argument& e) {
+      throw InvalidParameter(source_ + ": malformed JSON: " + e.what());
     }
     if (!root.is_object() || (!root.contains("handles") && !root.contains("handles_from_picked")) ||
         (root.contains("handles") && !root["handles"].is_array())) {

@@ -1,6 +1,7 @@
 #include <diffreg/serve/api.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/json.h>
 #include <diffreg/core/text.h>
 #include <diffreg/mesh/boundary.h>
 #include <diffreg/mesh/io.h>
@@ -38,14 +39,9 @@ struct RequestError : std::runtime_error {
 json parseBody(const std::string& body) {
   if (body.empty()) throw RequestError(400, "the request needs a JSON body");
   try {
-    json j = json::parse(body);
-    return j;
-  } catch (const json::parse_error& e) {
-    std::string what = e.what();
-    // "[json.exception.parse_error.101] parse error at line 1, column 2: ..." -> after "] "
-    const auto close = what.find("] ");
-    if (close != std::string::npos) what = what.substr(close + 2);
-    throw RequestError(400, "malformed JSON: " + what);
+    return parseJsonStrictly(body);
+  } catch (const std::invalid_argument& e) {
+    throw RequestError(400, std::string("malformed JSON: ") + e.what());
   }
 }
 
