@@ -730,6 +730,34 @@ TEST_CASE("TetGen .node/.ele, 0- and 1-based", "[mesh][io]") {
     CHECK_THAT(messageOf<IoError>([&] { readMesh(tmp / "lonely.node"); }),
                Catch::Contains(tmp / "lonely.ele"));
   }
+  SECTION("every line has the values its header names") {
+    const std::string corners = "1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n";
+    const auto error = [&](const std::string& node, const std::string& ele) {
+      tmp.file("h.node", node);
+      tmp.file("h.ele", ele);
+      return messageOf<InvalidMesh>([&] { readMesh(tmp / "h.node"); });
+    };
+    // Two attributes claimed, none given; a count no line could hold; a marker of 2.
+    CHECK_THAT(error("4 3 2 0\n" + corners, "1 4 0\n1 1 2 3 4\n"),
+               Catch::Contains("h.node:2: a point line of 4 values; the header says 6"));
+    CHECK_THAT(error("4 3 2000000000 0\n" + corners, "1 4 0\n1 1 2 3 4\n"),
+               Catch::Contains("h.node:1: the header's attributes count is '2000000000'"));
+    CHECK_THAT(error("4 3 0 2\n" + corners, "1 4 0\n1 1 2 3 4\n"),
+               Catch::Contains("boundary markers count is '2'"));
+    CHECK_THAT(error("4 3 0 0\n" + corners, "1 4 1\n1 1 2 3 4\n"),
+               Catch::Contains("h.ele:2: a tet line of 5 values; the header says 6"));
+    CHECK_THAT(error("4 3 0 0\n" + corners, "1 5 0\n1 1 2 3 4 4\n"),
+               Catch::Contains("5 nodes per tet (4 or 10)"));
+    // As TetGen writes them: with a region attribute, and quadratic tets (their corners first).
+    tmp.file("r.node", "4 3 0 1\n1 0 0 0 1\n2 1 0 0 1\n3 0 1 0 1\n4 0 0 1 1\n");
+    tmp.file("r.ele", "1 4 1\n1 1 2 3 4 7\n");
+    CHECK(readMesh(tmp / "r.ele").numElements() == 1);
+    std::string quadratic = "10 3 0 0\n" + corners;
+    for (int i = 5; i <= 10; ++i) quadratic += std::to_string(i) + " 0.1 0.1 0.1\n";
+    tmp.file("q.node", quadratic);
+    tmp.file("q.ele", "1 10 0\n1 1 2 3 4 5 6 7 8 9 10\n");
+    CHECK(readMesh(tmp / "q.ele").tet().tets[0] == std::array<int, 4>{0, 1, 2, 3});
+  }
   SECTION("index out of range") {
     tmp.file("bad.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
     const std::string e = tmp.file("bad.ele", "1 4 0\n1 1 2 3 5\n");

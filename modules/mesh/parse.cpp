@@ -1002,6 +1002,18 @@ TetMesh parseMedit(std::string_view text, const std::string& source) {
 
 namespace {
 
+/// Field `i` of a TetGen header line (0 when the line ends before it): an integer in [0, most].
+long long tetgenHeaderField(const std::string& where, const std::vector<std::string_view>& l,
+                            size_t i, const char* what, long long most) {
+  if (i >= l.size()) return 0;
+  const auto v = parseInt(l[i]);
+  if (!v || *v < 0 || *v > most) {
+    throw InvalidMesh(where + ": the header's " + what + " count is " + quote(l[i]) +
+                      " (an integer from 0 to " + std::to_string(most) + ")");
+  }
+  return *v;
+}
+
 int readTetgenNodes(std::string_view text, const std::string& source, TetMesh& tet) {
   Scanner f(text, source);
   std::vector<std::string_view> l;
@@ -1009,6 +1021,10 @@ int readTetgenNodes(std::string_view text, const std::string& source, TetMesh& t
   const long long n = count(f.where(), l[0], "point");
   const auto dim = l.size() > 1 ? parseInt(l[1]) : std::optional<long long>(3);
   if (!dim || *dim != 3) throw InvalidMesh(f.where() + ": only 3D TetGen meshes are supported");
+  // Each point line: its index, x y z, the attributes and the boundary marker the header names.
+  const long long attributes = tetgenHeaderField(f.where(), l, 2, "attributes", 1000);
+  const long long markers = tetgenHeaderField(f.where(), l, 3, "boundary markers", 1);
+  const size_t values = static_cast<size_t>(4 + attributes + markers);
   checkCount(f.where(), "points", n, 2, f.remaining());
   int firstIndex = 0;
   for (long long i = 0; i < n; ++i) {
@@ -1022,7 +1038,12 @@ int readTetgenNodes(std::string_view text, const std::string& source, TetMesh& t
       throw InvalidMesh(f.where() + ": expected point index " +
                         std::to_string(i == 0 ? 0 : firstIndex + i) + ", got " + quote(l[0]));
     }
-    if (l.size() < 4) throw InvalidMesh(f.where() + ": point needs 3 coordinates");
+    if (l.size() != values) {
+      throw InvalidMesh(f.where() + ": a point line of " + std::to_string(l.size()) +
+                        " values; the header says " + std::to_string(values) + " (index, x y z, " +
+                        std::to_string(attributes) + " attributes, " + std::to_string(markers) +
+                        " boundary markers)");
+    }
     Eigen::Vector3d p;
     for (int c = 0; c < 3; ++c) p[c] = coordinate(l[c + 1], [&] { return f.where(); }, *id);
     tet.points.push_back(p);
@@ -1037,6 +1058,14 @@ void readTetgenTets(std::string_view text, const std::string& source, int firstI
   if (!f.line(l)) throw InvalidMesh(source + ": empty file");
   const long long m = count(f.where(), l[0], "tet");
   if (m == 0) throw InvalidMesh(source + ": no tetrahedra");
+  // Each tet line: its index, its corners (4, or 10 for quadratic tets: the first 4 are the
+  // corners) and the attributes the header names.
+  const long long corners =
+      l.size() > 1 ? tetgenHeaderField(f.where(), l, 1, "nodes per tet", 10) : 4;
+  if (corners != 4 && corners != 10)
+    throw InvalidMesh(f.where() + ": " + std::to_string(corners) + " nodes per tet (4 or 10)");
+  const long long attributes = tetgenHeaderField(f.where(), l, 2, "attributes", 1000);
+  const size_t values = static_cast<size_t>(1 + corners + attributes);
   checkCount(f.where(), "tets", m, 2, f.remaining());
   const long long n = static_cast<long long>(tet.points.size());
   for (long long k = 0; k < m; ++k) {
@@ -1044,7 +1073,12 @@ void readTetgenTets(std::string_view text, const std::string& source, int firstI
       throw InvalidMesh(source + ": expected " + std::to_string(m) + " tets, found " +
                         std::to_string(k));
     }
-    if (l.size() < 5) throw InvalidMesh(f.where() + ": tet needs 4 vertex indices");
+    if (l.size() != values) {
+      throw InvalidMesh(f.where() + ": a tet line of " + std::to_string(l.size()) +
+                        " values; the header says " + std::to_string(values) + " (index, " +
+                        std::to_string(corners) + " nodes, " + std::to_string(attributes) +
+                        " attributes)");
+    }
     std::array<int, 4> t{};
     for (int j = 0; j < 4; ++j) {
       const auto v = parseInt(l[j + 1]);
