@@ -100,6 +100,9 @@ TEST_CASE(
     CHECK(x[a] > 1.0);
     CHECK(x[b] > 1.0);
     CHECK(entry["max"].get<double>() > entry["max_magnitude"].get<double>());
+    // Such weights cannot serve as beta: deform says why, and what to do.
+    CHECK_THROWS_WITH(runOne(doc, "deform", {{"regularization", "nonuniform"}}),
+                      Catch::Contains("outside [0, 1]") && Catch::Contains("clamp=true"));
 
     // clamp=true cuts the sum at 1.
     Document clamped = input;

@@ -33,7 +33,10 @@ RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regu
       for (int i = 0; i < x.size(); ++i)
         if (!(x(i) >= 0.0 && x(i) <= 1.0))
           throw InvalidParameter("regularization: the weight of vertex " + std::to_string(i) +
-                                 " is " + std::to_string(x(i)) + ", outside [0, 1]");
+                                 " is " + std::to_string(x(i)) + ", outside [0, 1]" +
+                                 (x(i) > 1.0 ? " (summed RBF weights exceed 1 between nearby "
+                                               "handles: rbf_weights clamp=true clamps them)"
+                                             : ""));
       const Eigen::MatrixXi& el = disc.elements();
       w.element.resize(m);
       for (int k = 0; k < m; ++k) {
