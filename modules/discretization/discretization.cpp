@@ -41,13 +41,18 @@ namespace {
 
 // The bounding-box diagonal of the positions the elements use (indices checked).
 double usedDiagonal(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements) {
-  Eigen::RowVectorXd lo = Eigen::RowVectorXd::Constant(positions.cols(), INFINITY), hi = -lo;
-  for (Eigen::Index j = 0; j < elements.cols(); ++j)
-    for (Eigen::Index e = 0; e < elements.rows(); ++e) {
-      lo = lo.cwiseMin(positions.row(elements(e, j)));
-      hi = hi.cwiseMax(positions.row(elements(e, j)));
-    }
-  return (hi - lo).norm();
+  double extent[3] = {0.0, 0.0, 0.0};
+  for (Eigen::Index c = 0; c < std::min<Eigen::Index>(3, positions.cols()); ++c) {
+    double lo = INFINITY, hi = -INFINITY;
+    for (Eigen::Index j = 0; j < elements.cols(); ++j)
+      for (Eigen::Index e = 0; e < elements.rows(); ++e) {
+        const double x = positions(elements(e, j), c);
+        lo = std::min(lo, x);
+        hi = std::max(hi, x);
+      }
+    extent[c] = hi - lo;
+  }
+  return std::hypot(extent[0], extent[1], extent[2]);  // no overflow of the squares
 }
 
 void checkElements(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements,
