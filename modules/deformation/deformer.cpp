@@ -385,6 +385,46 @@ void DeformationCore::throwWithThinnest(const NonFiniteSolution& e) const {
                           ", where a regular one has " + (tet ? "0.118" : "0.433") + ")");
 }
 
+void DeformationCore::runSteps(int maxIterations, double relTolerance,
+                               const Eigen::MatrixXd* initial, bool resume, Eigen::MatrixXd& X,
+                               DeformationResult& result) {
+  if (!model_.iterative()) {
+    X = restSolve();
+    result.energies.push_back(local(X, nullptr, t_));
+    result.iterations = 1;
+    report(result);
+  } else {
+    result.converged = false;
+    double E = 0.0;
+    const bool continuing = resume && resumable_;
+    // t_ leaves lastX_ from here until the run ends: a run that throws (a non-finite energy, a
+    // solver error, the progress callback) leaves nothing to continue and no last targets.
+    resumable_ = false;
+    if (continuing) {
+      X = lastX_;
+      E = lastE_;
+      result.initialGuess = "continued";
+      result.energies.push_back(E);
+    } else {
+      stationarityDue_ = false;
+      lbfgs_ = LbfgsHistory(std::max(1, options_.history));
+      anderson_ = AndersonMixer(std::max(1, options_.history));
+      E = start(initial, X, result);
+    }
+    if (options_.localStep == LocalStep::Reference)
+      iterateReference(maxIterations, relTolerance, X, E, result);
+    else if (options_.acceleration == Acceleration::Lbfgs)
+      descendLbfgs(maxIterations, relTolerance, X, E, result);
+    else
+      descend(maxIterations, relTolerance, X, E, result);
+    lastX_ = X;
+    lastE_ = result.energies.back();
+    resumable_ = true;
+    // As localStep decides: the exact step sweeps coupled targets, every other fits each alone.
+    ownFits_ = options_.localStep != LocalStep::Exact || !system_.regularizer().coupling();
+  }
+}
+
 DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
                                        const Eigen::MatrixXd* initial, bool resume) {
   if (handles_.empty()) throw InvalidParameter("deformation: no handles set");
@@ -398,41 +438,7 @@ DeformationResult DeformationCore::run(int maxIterations, double relTolerance,
   DeformationResult result;
   Eigen::MatrixXd X;
   try {
-    if (!model_.iterative()) {
-      X = restSolve();
-      result.energies.push_back(local(X, nullptr, t_));
-      result.iterations = 1;
-      report(result);
-    } else {
-      result.converged = false;
-      double E = 0.0;
-      const bool continuing = resume && resumable_;
-      // t_ leaves lastX_ from here until the run ends: a run that throws (a non-finite energy, a
-      // solver error, the progress callback) leaves nothing to continue and no last targets.
-      resumable_ = false;
-      if (continuing) {
-        X = lastX_;
-        E = lastE_;
-        result.initialGuess = "continued";
-        result.energies.push_back(E);
-      } else {
-        stationarityDue_ = false;
-        lbfgs_ = LbfgsHistory(std::max(1, options_.history));
-        anderson_ = AndersonMixer(std::max(1, options_.history));
-        E = start(initial, X, result);
-      }
-      if (options_.localStep == LocalStep::Reference)
-        iterateReference(maxIterations, relTolerance, X, E, result);
-      else if (options_.acceleration == Acceleration::Lbfgs)
-        descendLbfgs(maxIterations, relTolerance, X, E, result);
-      else
-        descend(maxIterations, relTolerance, X, E, result);
-      lastX_ = X;
-      lastE_ = result.energies.back();
-      resumable_ = true;
-      // As localStep decides: the exact step sweeps coupled targets, every other fits each alone.
-      ownFits_ = options_.localStep != LocalStep::Exact || !system_.regularizer().coupling();
-    }
+    runSteps(maxIterations, relTolerance, initial, resume, X, result);
   } catch (const NonFiniteSolution& e) {
     throwWithThinnest(e);
   }

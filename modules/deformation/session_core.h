@@ -52,6 +52,9 @@ class DeformationCore {
   // solve() (initial = nullptr) and solveFrom().
   DeformationResult run(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial,
                         bool resume = false);
+  // run()'s work after its checks: the linear solve, or the first shape and the iterations.
+  void runSteps(int maxIterations, double relTolerance, const Eigen::MatrixXd* initial, bool resume,
+                Eigen::MatrixXd& X, DeformationResult& result);
   // Rethrows `e` naming the thinnest element (mesh numbering).
   [[noreturn]] void throwWithThinnest(const NonFiniteSolution& e) const;
   // The first shape of the iterative energies and its local step (t_, the energy).
