@@ -376,6 +376,15 @@ TEST_CASE("a file of many large polygons is refused within seconds", "[mesh][hos
     for (int i = 0; i < corners; ++i) obj += " " + std::to_string(f * corners + i + 1);
     obj += "\n";
   }
+  // One face of 70,000 corners gets the error of its own corner count, not the work limit's.
+  std::string one;
+  for (int i = 0; i < 70000; ++i)
+    one += "v " + std::to_string(i) + " " + std::to_string(i % 7) + " 0\n";
+  one += "f";
+  for (int i = 1; i <= 70000; ++i) one += " " + std::to_string(i);
+  const std::string single = tmp.file("one.obj", one + "\n");
+  CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(single); }),
+             Catch::Contains("a polygon with 70000 corners (at most 256)"));
   const std::string p = tmp.file("polygons.obj", obj);
   const std::string line = std::to_string(faces * corners + faces);  // the last face's
   CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(p); }),

@@ -1217,7 +1217,9 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
     } else {
       const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") +
                                 ": face " + std::to_string(k + raw.base);
-      polygonWork += static_cast<unsigned long long>(f.ids.size()) * f.ids.size();
+      // A polygon over kMaxPolygonCorners gets triangulatePolygon's own error below.
+      const unsigned long long n = std::min<size_t>(f.ids.size(), kMaxPolygonCorners);
+      polygonWork += n * n;
       if (polygonWork > kMaxPolygonWork) {
         throw InvalidMesh(where +
                           ": too many large polygons (their squared corner counts add "
