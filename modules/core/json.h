@@ -11,8 +11,8 @@ namespace diffreg {
 /// twice in one object is an error (the default keeps the last), and so is a NUL byte (the
 /// default ends the text there and ignores what follows).
 /// \throw std::invalid_argument with a message without nlohmann's exception prefix, e.g.
-///        "parse error at line 1, column 2: ...", "key 'handles' twice in one object at
-///        line 3" or "a NUL byte at offset 17".
+///        "parse error at line 1, column 2: ...", "key 'handles' twice in one object" or
+///        "a NUL byte at offset 17".
 nlohmann::json parseJsonStrictly(const std::string& text);
 
 }  // namespace diffreg
