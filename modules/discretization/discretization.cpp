@@ -39,20 +39,34 @@ Eigen::MatrixXd Discretization::restFrame(int e) const {
 
 namespace {
 
-// The bounding-box diagonal of the positions the elements use (indices checked).
-double usedDiagonal(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements) {
-  double extent[3] = {0.0, 0.0, 0.0};
-  for (Eigen::Index c = 0; c < std::min<Eigen::Index>(3, positions.cols()); ++c) {
+// The extent of the bounding box of the rows of P3 that the elements use (indices checked).
+Eigen::Vector3d usedExtent(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements) {
+  Eigen::Vector3d extent;
+  for (int c = 0; c < 3; ++c) {
     double lo = INFINITY, hi = -INFINITY;
     for (Eigen::Index j = 0; j < elements.cols(); ++j)
       for (Eigen::Index e = 0; e < elements.rows(); ++e) {
-        const double x = positions(elements(e, j), c);
+        const double x = P3(elements(e, j), c);
         lo = std::min(lo, x);
         hi = std::max(hi, x);
       }
-    extent[c] = hi - lo;
+    extent(c) = hi - lo;
   }
-  return std::hypot(extent[0], extent[1], extent[2]);  // no overflow of the squares
+  return extent;
+}
+
+// Throws unless the diagonal of `extent` lies in [kMinMeshSize, kMaxMeshSize] (or is 0: the
+// elements are then degenerate, and say so).
+void checkSize(const Eigen::Vector3d& extent) {
+  const double size = extent.stableNorm();  // no over- or underflow of the squares
+  if (size > 0.0 && !(size >= kMinMeshSize && size <= kMaxMeshSize)) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.3g", size);
+    throw InvalidMesh(std::string("discretization: the mesh's size (bounding-box diagonal ") +
+                      text +
+                      ") is outside [1e-30, 1e30], where its areas and volumes stay within "
+                      "double precision; scale it");
+  }
 }
 
 void checkElements(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements,
@@ -70,15 +84,6 @@ void checkElements(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen:
         throw InvalidMesh("discretization: element " + std::to_string(e) + " has vertex index " +
                           std::to_string(elements(e, i)) + " out of range [0, " +
                           std::to_string(n) + ")");
-  const double size = usedDiagonal(positions, elements);
-  if (size > 0.0 && !(size >= kMinMeshSize && size <= kMaxMeshSize)) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.3g", size);
-    throw InvalidMesh(std::string("discretization: the mesh's size (bounding-box diagonal ") +
-                      text +
-                      ") is outside [1e-30, 1e30], where its areas and volumes stay within "
-                      "double precision; scale it");
-  }
 }
 
 // Tets: the facet records of every tet (for adjacency), sorted, and the mean length of the
@@ -239,9 +244,9 @@ const SparseMatrix& Discretization::stiffness() const {
   return s.K;
 }
 
-// Referenced vertices, components and the bounding box of the referenced vertices.
-void Discretization::buildComponents(const Eigen::MatrixXd& P3) {
-  const int n = static_cast<int>(P3.rows()), m = static_cast<int>(elements_.rows());
+// Referenced vertices and components.
+void Discretization::buildComponents(int n) {
+  const int m = static_cast<int>(elements_.rows());
   const int k = static_cast<int>(elements_.cols());
   active_.assign(n, false);
   DisjointSets sets(n);
@@ -256,16 +261,12 @@ void Discretization::buildComponents(const Eigen::MatrixXd& P3) {
   component_.assign(n, -1);
   std::vector<int> rootId(n, -1);
   numComponents_ = 0;
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
   for (int v = 0; v < n; ++v) {
     if (!active_[v]) continue;
     const int r = sets.find(v);
     if (rootId[r] < 0) rootId[r] = numComponents_++;
     component_[v] = rootId[r];
-    lo = lo.cwiseMin(P3.row(v).transpose());
-    hi = hi.cwiseMax(P3.row(v).transpose());
   }
-  diagonal_ = (hi - lo).norm();
 }
 
 void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
@@ -279,6 +280,10 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   const int cols = std::min<int>(3, static_cast<int>(positions.cols()));
   Eigen::MatrixXd P3 = Eigen::MatrixXd::Zero(positions.rows(), 3);
   P3.leftCols(cols) = positions.leftCols(cols);
+  // The bounding box of the referenced vertices, checked before any area or volume.
+  const Eigen::Vector3d extent = usedExtent(P3, elements);
+  checkSize(extent);
+  diagonal_ = extent.norm();
 
   std::vector<FacetRecord> records;  // tets: adjacency by sorting their facets
   if (k == 4)
@@ -291,7 +296,7 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   else
     buildElements<3>(P3, tinyMeasure);
   if (k == 4) interiorTetFacets(P3, records, facets_);
-  buildComponents(P3);
+  buildComponents(static_cast<int>(P3.rows()));
 }
 
 Discretization::Thinnest Discretization::thinnestElement() const {

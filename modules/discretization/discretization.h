@@ -120,7 +120,7 @@ class Discretization {
   void buildElements(const Eigen::MatrixXd& P3, double tinyMeasure);
   template <int K>
   SparseMatrix assembleStiffness() const;
-  void buildComponents(const Eigen::MatrixXd& P3);
+  void buildComponents(int n);
 
   MeshKind kind_ = MeshKind::Surface;
   int dim_ = 3;
