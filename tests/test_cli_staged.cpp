@@ -75,3 +75,20 @@ TEST_CASE("an output that is a symbolic link stays one", "[cli][hostile]") {
   CHECK(tmp.entries() == 2);
   CHECK(std::distance(fs::directory_iterator(tmp.path / "data"), fs::directory_iterator()) == 1);
 }
+
+TEST_CASE("a staged write that fails names the output, not its temporary", "[cli][hostile]") {
+  TempDir tmp;
+  const std::string out = tmp / "out.ply";
+  StagedOutputs staged;
+  std::string temporary;
+  try {
+    staged.stageWritten(out, [&temporary](const std::string& t) {
+      temporary = t;
+      throw IoError("cannot write '" + t + "': No space left on device");
+    });
+    FAIL("no error");
+  } catch (const IoError& e) {
+    CHECK(std::string(e.what()) == "cannot write '" + out + "': No space left on device");
+  }
+  CHECK(temporary != out);
+}

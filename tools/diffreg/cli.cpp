@@ -179,13 +179,23 @@ std::string StagedOutputs::stage(const std::string& path) {
   return tmp;
 }
 
-void StagedOutputs::stageText(const std::string& path, const std::string& text) {
-  const std::string tmp = stage(path);
+void StagedOutputs::stageWritten(const std::string& path,
+                                 const std::function<void(const std::string&)>& write) {
+  const std::string temporary = stage(path);
   try {
-    writeFileAtomically(tmp, [&text](std::ostream& out) { out << text; });
-  } catch (const IoError&) {
-    throw IoError("cannot write '" + path + "'");
+    write(temporary);
+  } catch (const IoError& e) {      // e.g. a full disk: the message names the output, not its
+    std::string reason = e.what();  // temporary
+    const size_t at = reason.find(temporary);
+    if (at != std::string::npos) reason.replace(at, temporary.size(), path);
+    throw IoError(reason);
   }
+}
+
+void StagedOutputs::stageText(const std::string& path, const std::string& text) {
+  stageWritten(path, [&text](const std::string& temporary) {
+    writeFileAtomically(temporary, [&text](std::ostream& out) { out << text; });
+  });
 }
 
 void StagedOutputs::commit() {
@@ -253,7 +263,7 @@ void writeTableOutputs(const boost::program_options::variables_map& vm,
                        const std::function<void(const std::string&)>& drawPicture,
                        const std::function<nlohmann::json()>& makeReport) {
   StagedOutputs staged;
-  if (vm.count("output")) drawPicture(staged.stage(vm["output"].as<std::string>()));
+  if (vm.count("output")) staged.stageWritten(vm["output"].as<std::string>(), drawPicture);
   if (vm.count("report"))
     staged.stageText(vm["report"].as<std::string>(), reportText(makeReport()));
   if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);

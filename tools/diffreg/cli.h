@@ -99,7 +99,10 @@ class StagedOutputs {
   /// Returns the temporary name to write `path` to.
   /// \throw InvalidParameter when `path` (under any spelling) is already staged.
   std::string stage(const std::string& path);
-  /// Writes `text` to `path`'s temporary. \throw IoError when writing fails.
+  /// Stages `path` and has `write` write its temporary.
+  /// \throw IoError when writing fails, its message naming `path` where it named the temporary.
+  void stageWritten(const std::string& path, const std::function<void(const std::string&)>& write);
+  /// stageWritten with `text` for the content.
   void stageText(const std::string& path, const std::string& text);
   /// Renames every temporary onto its target; when a rename fails, the targets renamed so far
   /// get back what they held (or are removed when they did not exist).

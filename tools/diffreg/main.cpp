@@ -157,17 +157,9 @@ int runPipeline(const po::variables_map& vm) {
   const double filterSeconds = phase.seconds();
 
   phase.reset();
-  for (const auto& output : outputs) {
-    const std::string temporary = staged.stage(output);
-    try {
-      writeMesh(temporary, doc.mesh);
-    } catch (const IoError& e) {      // e.g. a full disk: the message names the output, not its
-      std::string reason = e.what();  // temporary
-      const size_t at = reason.find(temporary);
-      if (at != std::string::npos) reason.replace(at, temporary.size(), output);
-      throw IoError(reason);
-    }
-  }
+  for (const auto& output : outputs)
+    staged.stageWritten(output,
+                        [&doc](const std::string& temporary) { writeMesh(temporary, doc.mesh); });
   // Where the time of the run went (the report itself and the final renames are not counted).
   report["seconds"] = {{"read", readSeconds},
                        {"filters", filterSeconds},
