@@ -23,6 +23,9 @@ struct BenchMesh {
   Mesh mesh;
 };
 
+/// A generated UV sphere of radius 1 with about n vertices, labelled "sphere-<n>".
+BenchMesh sphereNear(int n);
+
 /// What a case's preparation built: the mesh facts, or why the case cannot run.
 struct Prepared {
   bool available = true;

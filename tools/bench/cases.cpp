@@ -31,7 +31,8 @@ std::string thousands(int n) {
   return s.str();
 }
 
-// Generated shapes sized to about n vertices.
+}  // namespace
+
 BenchMesh sphereNear(int n) {
   // A UV sphere has slices * (stacks - 1) + 2 vertices; stacks ~ 0.625 slices.
   const int slices = std::max(8, 4 * static_cast<int>(std::lround(std::sqrt(n / 0.625) / 4.0)));
@@ -42,6 +43,9 @@ BenchMesh sphereNear(int n) {
   return {"sphere-" + thousands(m.numVertices()), src.str(), std::move(m)};
 }
 
+namespace {
+
+// Generated shapes sized to about n vertices.
 BenchMesh rectangleNear(int n) {
   // A 2 x 1 rectangle of 2k x k cells has (2k + 1)(k + 1) corners and 2 k^2 centres.
   const int k = std::max(2, static_cast<int>(std::lround(std::sqrt(n / 4.0))));

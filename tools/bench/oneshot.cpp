@@ -1,8 +1,8 @@
-// One-shot cases: a whole `diffreg` run on a shared surface, from reading the file to writing the
-// result (the tool itself, started as a process: `-i MESH --handles H --filter 'deform
-// iterations=1' -o OUT.ply`), against CGAL's Surface_mesh_deformation reading the same file,
-// preprocessing and deforming once, in the same run. Handles: the 5% at both ends of the longest
-// axis, one end pulled by 10% of the length (as the peer cases).
+// One-shot cases: a whole `diffreg` run on a shared surface or a generated sphere written as
+// OBJ, from reading the file to writing the result (the tool itself, started as a process: `-i MESH
+// --handles H --filter 'deform iterations=1' -o OUT.ply`), against CGAL's Surface_mesh_deformation
+// reading the same file, preprocessing and deforming once, in the same run. Handles: the 5% at both
+// ends of the longest axis, one end pulled by 10% of the length (as the peer cases).
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
 #include <diffreg/core/timer.h>
@@ -68,37 +68,50 @@ double runTool(const OneShot& s) {
   return seconds;
 }
 
-void addOneShotCase(std::vector<Case>& cases, const std::string& label, const std::string& file) {
+// A shared mesh (`file`), or with `generated` > 0 a UV sphere of about that many vertices,
+// written as OBJ beside the handle file.
+void addOneShotCase(std::vector<Case>& cases, const std::string& label, const std::string& file,
+                    int generated = 0) {
   auto state = std::make_shared<OneShot>();
   Case c;
   c.group = "oneshot";
   c.name = "oneshot/" + label;
-  c.prepare = [state, file] {
+  c.prepare = [state, file, generated] {
     OneShot& s = *state;
     Prepared p;
-    Mesh mesh;
-    if (!sharedMesh(file, mesh, s.path)) {
-      p.available = false;
-      p.skipReason = s.path + " absent";
-      return p;
-    }
     s.tool = besideThisExecutable("diffreg");  // the tool beside this benchmark
     if (s.tool.empty() || !fs::exists(s.tool)) {
       p.available = false;
       p.skipReason = "the diffreg tool is not beside diffreg-bench";
       return p;
     }
+    s.dir = fs::temp_directory_path() / ("diffreg-bench-" + std::to_string(::getpid()));
+    Mesh mesh;
+    std::string source;
+    if (generated > 0) {
+      BenchMesh made = sphereNear(generated);
+      mesh = std::move(made.mesh);
+      fs::create_directories(s.dir);
+      s.path = (s.dir / (made.label + ".obj")).string();
+      writeMesh(s.path, mesh);
+      source = made.source + ", written as " + s.path;
+    } else if (!sharedMesh(file, mesh, s.path)) {
+      p.available = false;
+      p.skipReason = s.path + " absent";
+      return p;
+    } else {
+      source = s.path;
+    }
     const Eigen::MatrixXd rest = mesh.positions();
     const auto [fixed, moved] = endHandles(rest, 0.05);
     s.handles = fixed;
     s.handles.insert(s.handles.end(), moved.begin(), moved.end());
     s.targets = moveTargets(rest, fixed, moved, 0.10, 3);
-    s.dir = fs::temp_directory_path() / ("diffreg-bench-" + std::to_string(::getpid()));
     fs::create_directories(s.dir);
     s.handleFile = (s.dir / "handles.json").string();
     s.output = (s.dir / "out.ply").string();
     writeHandleFile(s, fixed.size(), rest);
-    p.source = s.path;
+    p.source = source;
     p.vertices = mesh.numVertices();
     p.elements = mesh.numElements();
     p.facts["handle_vertices"] = static_cast<double>(s.handles.size());
@@ -125,6 +138,7 @@ void addOneShotCases(std::vector<Case>& cases, const Sizes& sizes) {
   addOneShotCase(cases, "rocker-arm", "surface-rocker-arm.obj");
   addOneShotCase(cases, "armadillo", "surface-armadillo.obj");
   addOneShotCase(cases, "beetle-20k", "surface-beetle-20k.off");
+  addOneShotCase(cases, "sphere-10k", "", 10000);
 }
 
 }  // namespace diffreg::bench
