@@ -109,6 +109,11 @@ double cgalOneShot(const std::string& path, const std::vector<int>& handles,
 void addConvergenceCases(std::vector<Case>& cases, const Sizes& sizes);
 /// oneshot/<mesh>: the diffreg tool from reading to writing against CGAL read + 1 iteration.
 void addOneShotCases(std::vector<Case>& cases, const Sizes& sizes);
+/// The option that makes this benchmark the one-shot cases' CGAL child: PATH TARGET_FILE.
+inline constexpr const char* kCgalOneShotFlag = "--cgal-oneshot-case";
+/// The child: CGAL's read + preprocess + 1 iteration on PATH with the handles and targets of
+/// TARGET_FILE, its seconds printed on stdout.
+int runCgalOneShotChild(const std::string& path, const std::string& targetFile);
 /// editor/<mesh>: a drag step of the edit engine with the editor's time budget and without.
 void addEditorCases(std::vector<Case>& cases, const Sizes& sizes);
 
