@@ -109,11 +109,16 @@ double cgalOneShot(const std::string& path, const std::vector<int>& handles,
 void addConvergenceCases(std::vector<Case>& cases, const Sizes& sizes);
 /// oneshot/<mesh>: the diffreg tool from reading to writing against CGAL read + 1 iteration.
 void addOneShotCases(std::vector<Case>& cases, const Sizes& sizes);
-/// The option that makes this benchmark the one-shot cases' CGAL child: PATH TARGET_FILE.
+/// cgalOneShot in a process of its own with the diffreg tool's heap settings (cgal_child.cpp),
+/// timed inside it; `scratchDir` takes the file that hands it the targets.
+double cgalOneShotInChild(const std::string& path, const std::vector<int>& handles,
+                          const Eigen::MatrixXd& targets, int iterations,
+                          const std::string& scratchDir);
+/// The option that makes this benchmark that process: PATH TARGET_FILE ITERATIONS.
 inline constexpr const char* kCgalOneShotFlag = "--cgal-oneshot-case";
-/// The child: CGAL's read + preprocess + 1 iteration on PATH with the handles and targets of
-/// TARGET_FILE, its seconds printed on stdout.
-int runCgalOneShotChild(const std::string& path, const std::string& targetFile);
+/// That process: cgalOneShot on PATH with the handles and targets of TARGET_FILE, its seconds
+/// printed on stdout.
+int runCgalOneShotChild(const std::string& path, const std::string& targetFile, int iterations);
 /// editor/<mesh>: a drag step of the edit engine with the editor's time budget and without.
 void addEditorCases(std::vector<Case>& cases, const Sizes& sizes);
 

@@ -12,8 +12,11 @@
 #include <diffreg/mesh/shapes.h>
 #include <diffreg/weights/diffusion.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <string>
@@ -233,9 +236,20 @@ void addCgalCase(std::vector<Case>& cases, const std::string& label, const std::
     }
     sample.emplace_back("cgal_cap_iterations", cap);
     sample.emplace_back("cgal_300", t.seconds[std::min<size_t>(299, t.seconds.size() - 1)]);
-    // Read + preprocess + 300 iterations from the file, as a one-shot tool would run it.
-    if (s.path.find('/') != std::string::npos)
-      sample.emplace_back("cgal_read_300", cgalOneShot(s.path, s.handles, s.targets, 300));
+    // Read + preprocess + 300 iterations from the file, as a one-shot tool would run it: in a
+    // process of its own with the diffreg tool's heap settings (the target's figure), and in
+    // this one.
+    if (s.path.find('/') != std::string::npos) {
+      const std::filesystem::path dir =
+          std::filesystem::temp_directory_path() / ("diffreg-bench-" + std::to_string(::getpid()));
+      std::filesystem::create_directories(dir);
+      const double own = cgalOneShotInChild(s.path, s.handles, s.targets, 300, dir.string());
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+      sample.emplace_back("cgal_read_300", own);
+      sample.emplace_back("cgal_read_300_in_process",
+                          cgalOneShot(s.path, s.handles, s.targets, 300));
+    }
     return sample;
   };
   cases.push_back(std::move(c));

@@ -369,7 +369,7 @@ void printConvergence(const std::vector<Result>& results, std::ostream& out) {
            "accel. it 1e-4", "ms", "plain it 1e-6", "ms", "accel. it 1e-6", "ms",
            "default: it", "ms", "gap"});
   Table c({"case", "V", "it 1e-3", "ms", "it 1e-4", "ms", "it 1e-6", "ms", "300 it (ms)",
-           "read + preprocess + 300 it (ms)"});
+           "read + preprocess + 300 it (ms)", "the same in this process (ms)"});
   bool any = false, anyCgal = false;
   std::ostringstream elsewhere;
   for (const Result& r : results) {
@@ -383,6 +383,8 @@ void printConvergence(const std::vector<Result>& results, std::ostream& out) {
       }
       row.push_back(ms(r.get("cgal_300")));
       row.push_back(r.has("cgal_read_300") ? ms(r.get("cgal_read_300")) : "-");
+      row.push_back(r.has("cgal_read_300_in_process") ? ms(r.get("cgal_read_300_in_process"))
+                                                      : "-");
       c.add(row);
       continue;
     }
@@ -821,8 +823,8 @@ int main(int argc, char** argv) {
         printUsage(std::cout);
         return 0;
       } else if (arg == kCgalOneShotFlag) {
-        const std::string path = value();
-        return runCgalOneShotChild(path, value());
+        const std::string path = value(), targetFile = value();
+        return runCgalOneShotChild(path, targetFile, intValue(1000000));
       } else if (arg == kMemoryFlag) {
         diffreg::setQuiet(true);
         runMemorySession(std::stoi(value()));

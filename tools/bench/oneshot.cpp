@@ -6,7 +6,6 @@
 // ends of the longest axis, one end pulled by 10% of the length (as the peer cases).
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
-#include <diffreg/core/heap.h>
 #include <diffreg/core/timer.h>
 #include <diffreg/mesh/io.h>
 #include "bench.h"
@@ -17,7 +16,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -32,7 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct OneShot {
-  std::string path, tool, handleFile, targetFile, output, reportFile;
+  std::string path, tool, handleFile, output, reportFile;
   std::vector<int> handles;
   Eigen::MatrixXd targets;
   fs::path dir;
@@ -50,55 +48,6 @@ void writeHandleFile(const OneShot& s, size_t held, const Eigen::MatrixXd& rest)
        {{{"name", "held"}, {"vertices", fixed}, {"translate", {0.0, 0.0, 0.0}}},
         {{"name", "pulled"}, {"vertices", moved}, {"translate", {shift(0), shift(1), shift(2)}}}}}};
   std::ofstream(s.handleFile) << file.dump();
-}
-
-// The handles and their targets for the CGAL child: "count", then "vertex x y z" per handle.
-void writeTargetFile(const OneShot& s) {
-  std::ofstream file(s.targetFile);
-  file.precision(17);
-  file << s.handles.size() << "\n";
-  for (size_t i = 0; i < s.handles.size(); ++i) {
-    const Eigen::Index r = static_cast<Eigen::Index>(i);
-    file << s.handles[i] << " " << s.targets(r, 0) << " " << s.targets(r, 1) << " "
-         << s.targets(r, 2) << "\n";
-  }
-  if (!file) throw IoError("one-shot: cannot write " + s.targetFile);
-}
-
-// CGAL's read + preprocess + 1 iteration in a process of its own (this benchmark started with
-// kCgalOneShotFlag, its heap set up as the tool's), timed inside it, without its start and
-// exit: memory as fresh as the tool's, and the same allocator settings. Inside this
-// benchmark's process (kept beside it) the time depends on what ran before (the 10K sphere:
-// 55 ms after the other one-shot cases, 96 ms alone) and on glibc's default heap, which maps
-// and clears CGAL's large blocks afresh.
-double runCgalChild(const OneShot& s) {
-  int fds[2];
-  if (pipe(fds) != 0) throw Error("one-shot: pipe() failed");
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_addclose(&actions, fds[0]);
-  posix_spawn_file_actions_addclose(&actions, fds[1]);
-  std::vector<std::string> args = {"diffreg-bench", kCgalOneShotFlag, s.path, s.targetFile};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int spawned = posix_spawn(&pid, "/proc/self/exe", &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  close(fds[1]);
-  std::string output;
-  char buffer[256];
-  ssize_t got = 0;
-  while (spawned == 0 && (got = read(fds[0], buffer, sizeof buffer)) > 0)
-    output.append(buffer, static_cast<size_t>(got));
-  close(fds[0]);
-  if (spawned != 0) throw Error("one-shot: cannot start the CGAL child");
-  int status = 0;
-  waitpid(pid, &status, 0);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || output.empty())
-    throw Error("one-shot: the CGAL child failed on " + s.path);
-  return std::stod(output);
 }
 
 // The tool's whole run (from its start to its exit) and, from its report, the part from reading
@@ -165,11 +114,9 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
     s.targets = moveTargets(rest, fixed, moved, 0.10, 3);
     fs::create_directories(s.dir);
     s.handleFile = (s.dir / "handles.json").string();
-    s.targetFile = (s.dir / "targets.txt").string();
     s.output = (s.dir / "out.ply").string();
     s.reportFile = (s.dir / "report.json").string();
     writeHandleFile(s, fixed.size(), rest);
-    writeTargetFile(s);
     p.source = source;
     p.vertices = mesh.numVertices();
     p.elements = mesh.numElements();
@@ -184,7 +131,7 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
   c.run = [state] {
     const OneShot& s = *state;
     const auto [ours, readToWrite] = runTool(s);
-    const double cgal = runCgalChild(s);
+    const double cgal = cgalOneShotInChild(s.path, s.handles, s.targets, 1, s.dir.string());
     const double warm = cgalOneShot(s.path, s.handles, s.targets, 1);
     return Sample{{"ours", ours},
                   {"ours_read_to_write", readToWrite},
@@ -195,31 +142,6 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
 }
 
 }  // namespace
-
-int runCgalOneShotChild(const std::string& path, const std::string& targetFile) {
-  // The heap set up as the diffreg tool's (huge pages, large blocks kept), which CGAL gains from
-  // as well; plain C reading, so that the heap is as fresh as the tool's when CGAL starts.
-  tuneHeapForBatchRun();
-  std::FILE* file = std::fopen(targetFile.c_str(), "r");
-  if (!file) throw IoError("cannot open " + targetFile);
-  long count = 0;
-  if (std::fscanf(file, "%ld", &count) != 1 || count <= 0 || count > 100000000) {
-    std::fclose(file);
-    throw IoError("bad target file " + targetFile);
-  }
-  std::vector<int> handles(static_cast<size_t>(count));
-  Eigen::MatrixXd targets(count, 3);
-  for (long i = 0; i < count; ++i) {
-    if (std::fscanf(file, "%d %lf %lf %lf", &handles[static_cast<size_t>(i)], &targets(i, 0),
-                    &targets(i, 1), &targets(i, 2)) != 4) {
-      std::fclose(file);
-      throw IoError("bad target file " + targetFile);
-    }
-  }
-  std::fclose(file);
-  std::printf("%.9f\n", cgalOneShot(path, handles, targets, 1));
-  return 0;
-}
 
 void addOneShotCases(std::vector<Case>& cases, const Sizes& sizes) {
   if (sizes.quick) return;
