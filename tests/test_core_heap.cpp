@@ -42,6 +42,16 @@ Mapping mappingOf(const void* address) {
   return found;
 }
 
+// The kernel's count of huge page faults that fell back to small pages (0 where it has none).
+long thpFallbacks() {
+  std::ifstream vmstat("/proc/vmstat");
+  std::string name;
+  long value = 0;
+  while (vmstat >> name >> value)
+    if (name == "thp_fault_fallback") return value;
+  return 0;
+}
+
 }  // namespace
 
 #if defined(__GLIBC__)
@@ -70,7 +80,7 @@ TEST_CASE("after tuneHeapForBatchRun large arrays come from the heap and stay th
       getrusage(RUSAGE_SELF, &usage);
       return usage.ru_minflt;
     };
-    const long before = faults();
+    const long fallbacks = thpFallbacks(), before = faults();
     std::memset(block, 1, kSize);
     const long taken = faults() - before;
     std::free(block);
@@ -78,7 +88,12 @@ TEST_CASE("after tuneHeapForBatchRun large arrays come from the heap and stay th
       // Advised from its first byte on: the stretch below the advice is kept out of use.
       CHECK(done.hugePages);
       CHECK(m.flags.find(" hg") != std::string::npos);
-      CHECK(taken < 256);
+      // A kernel short of free huge pages falls back to small ones and counts it; a block with
+      // a page table already is not even tried, and is not counted.
+      if (thpFallbacks() == fallbacks)
+        CHECK(taken < 256);
+      else
+        WARN("the kernel had no free huge page: the fault count is not checked");
     }
   }
   // 16 MiB: mapped on its own by glibc's default (128 KiB threshold), from the heap after.
