@@ -14,9 +14,9 @@ struct HeapTuning {
 /// (rather than mapped and unmapped each time), the heap reserves 256 MiB ahead (address space
 /// only: memory is committed when touched, 2 MiB at a time where huge pages are granted), and
 /// that reserve is advised for transparent huge pages (MADV_HUGEPAGE; the kernel's default
-/// "madvise" mode grants them only on request). The 4-6 MiB of heap below the first huge page
-/// boundary of the reserve that no page was touched in yet stay out of use (address space
-/// only), so that the run's first arrays come from huge pages too.
+/// "madvise" mode grants them only on request). The advice starts at the first 2 MiB boundary
+/// that the tuning itself touched no page beyond; the 4-6 MiB of heap below it stay out of use
+/// (address space only), so that the run's first arrays come from huge pages too.
 /// Past the reserve the heap grows as glibc's default would.
 /// A fresh page costs a fault and a clearing on first touch; a one-shot deformation of a 10K
 /// mesh takes 7,500 of them with 4 KiB pages and about 420 with this (docs/benchmarks.md).
