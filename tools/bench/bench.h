@@ -5,6 +5,7 @@
 #include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <string>
@@ -61,6 +62,30 @@ std::string sharedMeshDirectory();
 /// Reads a mesh from sharedMeshDirectory() when the file exists; false (and a note) when absent.
 bool sharedMesh(const std::string& file, Mesh& mesh, std::string& path);
 
+/// Runs `program` with `args` (argv, its own name first) in a child process, waits for it and
+/// returns what it printed on stdout.
+/// \throw Error beginning with `what` when it cannot start or does not exit with status 0.
+std::string runProcess(const std::string& program, const std::vector<std::string>& args,
+                       const std::string& what);
+/// runProcess on this benchmark's own executable: `args` select a child mode (kMemoryFlag,
+/// kCgalOneShotFlag). A child's resource usage is the parent's getrusage(RUSAGE_CHILDREN) after.
+std::string runSelf(const std::vector<std::string>& args, const std::string& what);
+
+/// A new directory of its own under the system's temporary directory
+/// (diffreg-bench-<pid>-<count>), for the files a case hands a child process; removed with its
+/// contents when destroyed.
+class ScratchDirectory {
+ public:
+  ScratchDirectory();
+  ~ScratchDirectory();
+  ScratchDirectory(const ScratchDirectory&) = delete;
+  ScratchDirectory& operator=(const ScratchDirectory&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
 /// Appends the cases of each group.
 void addWeightCases(std::vector<Case>& cases, const Sizes& sizes);
 void addDeformationCases(std::vector<Case>& cases, const Sizes& sizes);
@@ -69,6 +94,8 @@ void addPeerCases(std::vector<Case>& cases, const Sizes& sizes);
 /// The memory probe's session (run in a child process): a surface sphere with about `vertices`
 /// vertices, diffused weights, a nonuniform ARAP session and one handle move of 5 iterations.
 void runMemorySession(int vertices);
+/// The option that makes this benchmark that process: VERTICES.
+inline constexpr const char* kMemoryFlag = "--memory-case";
 
 /// Handles used by the deformation and peer cases: a fixed region at the low end of the
 /// longest bounding-box axis and a moved region at the high end, each `fraction` of its
@@ -113,7 +140,7 @@ void addOneShotCases(std::vector<Case>& cases, const Sizes& sizes);
 /// timed inside it; `scratchDir` takes the file that hands it the targets.
 double cgalOneShotInChild(const std::string& path, const std::vector<int>& handles,
                           const Eigen::MatrixXd& targets, int iterations,
-                          const std::string& scratchDir);
+                          const std::filesystem::path& scratchDir);
 /// The option that makes this benchmark that process: PATH TARGET_FILE ITERATIONS.
 inline constexpr const char* kCgalOneShotFlag = "--cgal-oneshot-case";
 /// That process: cgalOneShot on PATH with the handles and targets of TARGET_FILE, its seconds

@@ -8,24 +8,18 @@
 #include <diffreg/core/heap.h>
 #include "bench.h"
 
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cstdio>
 #include <fstream>
 #include <string>
 #include <vector>
 
-extern char** environ;
-
 namespace diffreg::bench {
 
 double cgalOneShotInChild(const std::string& path, const std::vector<int>& handles,
                           const Eigen::MatrixXd& targets, int iterations,
-                          const std::string& scratchDir) {
+                          const std::filesystem::path& scratchDir) {
   // The handles and their targets: "count", then "vertex x y z" per handle.
-  const std::string targetFile = scratchDir + "/cgal-targets.txt";
+  const std::string targetFile = (scratchDir / "cgal-targets.txt").string();
   {
     std::ofstream file(targetFile);
     file.precision(17);
@@ -37,33 +31,9 @@ double cgalOneShotInChild(const std::string& path, const std::vector<int>& handl
     }
     if (!file) throw IoError("CGAL peer: cannot write " + targetFile);
   }
-  int fds[2];
-  if (pipe(fds) != 0) throw Error("CGAL peer: pipe() failed");
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_addclose(&actions, fds[0]);
-  posix_spawn_file_actions_addclose(&actions, fds[1]);
-  std::vector<std::string> args = {"diffreg-bench", kCgalOneShotFlag, path, targetFile,
-                                   std::to_string(iterations)};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int spawned = posix_spawn(&pid, "/proc/self/exe", &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  close(fds[1]);
-  std::string output;
-  char buffer[256];
-  ssize_t got = 0;
-  while (spawned == 0 && (got = read(fds[0], buffer, sizeof buffer)) > 0)
-    output.append(buffer, static_cast<size_t>(got));
-  close(fds[0]);
-  if (spawned != 0) throw Error("CGAL peer: cannot start its process");
-  int status = 0;
-  waitpid(pid, &status, 0);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || output.empty())
-    throw Error("CGAL peer: its process failed on " + path);
+  const std::string output = runSelf(
+      {kCgalOneShotFlag, path, targetFile, std::to_string(iterations)}, "CGAL peer on " + path);
+  if (output.empty()) throw Error("CGAL peer: its process printed no time for " + path);
   return std::stod(output);
 }
 

@@ -12,11 +12,8 @@
 #include <diffreg/mesh/shapes.h>
 #include <diffreg/weights/diffusion.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <limits>
 #include <memory>
 #include <string>
@@ -240,12 +237,8 @@ void addCgalCase(std::vector<Case>& cases, const std::string& label, const std::
     // process of its own with the diffreg tool's heap settings (the target's figure), and in
     // this one.
     if (s.path.find('/') != std::string::npos) {
-      const std::filesystem::path dir =
-          std::filesystem::temp_directory_path() / ("diffreg-bench-" + std::to_string(::getpid()));
-      std::filesystem::create_directories(dir);
-      const double own = cgalOneShotInChild(s.path, s.handles, s.targets, 300, dir.string());
-      std::error_code ec;
-      std::filesystem::remove_all(dir, ec);
+      const ScratchDirectory dir;
+      const double own = cgalOneShotInChild(s.path, s.handles, s.targets, 300, dir.path());
       sample.emplace_back("cgal_read_300", own);
       sample.emplace_back("cgal_read_300_in_process",
                           cgalOneShot(s.path, s.handles, s.targets, 300));

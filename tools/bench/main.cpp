@@ -10,7 +10,6 @@
 #include <diffreg/solver/solver.h>
 
 #include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 #include <nlohmann/json.hpp>
 
@@ -30,8 +29,6 @@
 
 namespace diffreg::bench {
 namespace {
-
-constexpr const char* kMemoryFlag = "--memory-case";
 
 struct Options {
   int repeats = 5;
@@ -496,11 +493,13 @@ void printMemory(const std::vector<Result>& results, std::ostream& out) {
   }
   if (!any) return;
   out << "Memory: a surface session (mesh, discretization, eq. 8 weights, nonuniform ARAP, one "
-         "5-iteration handle move) in a child process (fork + exec, run first). peak RSS = the "
+         "5-iteration handle move) in a child process (this benchmark started again, run first). "
+         "peak RSS = the "
          "child's VmHWM after that move; \"after X\" = its VmHWM once stage X is done (basis: "
          "then the handle basis on, the editor's setting, and a move that builds it; edit: "
          "one more 5-iteration move); ru_maxrss = "
-         "getrusage(RUSAGE_CHILDREN), which also counts the parent's pages at fork.\n\n";
+         "getrusage(RUSAGE_CHILDREN), which also counts the parent's peak when the child "
+         "started.\n\n";
   t.print(out);
 }
 
@@ -627,30 +626,9 @@ Case memoryCase(int vertices, const std::string& label) {
     return p;
   };
   c.run = [vertices] {
-    int pipeFds[2];
-    if (pipe(pipeFds) != 0) throw Error("memory probe: pipe() failed");
     Timer timer;
-    const pid_t pid = fork();
-    if (pid < 0) throw Error("memory probe: fork() failed");
-    if (pid == 0) {
-      dup2(pipeFds[1], STDOUT_FILENO);
-      close(pipeFds[0]);
-      close(pipeFds[1]);
-      const std::string n = std::to_string(vertices);
-      execl("/proc/self/exe", "diffreg-bench", kMemoryFlag, n.c_str(), static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    close(pipeFds[1]);
-    std::string output;
-    char buffer[256];
-    ssize_t got;
-    while ((got = read(pipeFds[0], buffer, sizeof buffer)) > 0) output.append(buffer, got);
-    close(pipeFds[0]);
-    int status = 0;
-    waitpid(pid, &status, 0);
+    const std::string output = runSelf({kMemoryFlag, std::to_string(vertices)}, "memory probe");
     const double wall = timer.seconds();
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-      throw Error("memory probe: the child process failed");
     rusage usage{};
     getrusage(RUSAGE_CHILDREN, &usage);
     // The child reports "stage NAME KIB" (its peak so far) after each stage, then its size.

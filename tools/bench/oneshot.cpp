@@ -12,17 +12,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
-
-extern char** environ;
 
 namespace diffreg::bench {
 namespace {
@@ -33,7 +27,7 @@ struct OneShot {
   std::string path, tool, handleFile, output, reportFile;
   std::vector<int> handles;
   Eigen::MatrixXd targets;
-  fs::path dir;
+  std::unique_ptr<ScratchDirectory> dir;  // the handle file, the output, a generated mesh
 };
 
 // Writes the handles as a diffreg handle file: the held end, and the pulled end with the
@@ -53,21 +47,12 @@ void writeHandleFile(const OneShot& s, size_t held, const Eigen::MatrixXd& rest)
 // The tool's whole run (from its start to its exit) and, from its report, the part from reading
 // the input to writing the output.
 std::pair<double, double> runTool(const OneShot& s) {
-  std::vector<std::string> args = {
-      s.tool, "-i",     s.path,    "--handles", s.handleFile, "--filter", "deform iterations=1",
-      "-o",   s.output, "--quiet", "--report",  s.reportFile};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
   Timer timer;
-  pid_t pid = 0;
-  if (posix_spawn(&pid, s.tool.c_str(), nullptr, nullptr, argv.data(), environ) != 0)
-    throw Error("one-shot: cannot start " + s.tool);
-  int status = 0;
-  waitpid(pid, &status, 0);
+  runProcess(s.tool,
+             {s.tool, "-i", s.path, "--handles", s.handleFile, "--filter", "deform iterations=1",
+              "-o", s.output, "--quiet", "--report", s.reportFile},
+             "one-shot on " + s.path);
   const double seconds = timer.seconds();
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw Error("one-shot: " + s.tool + " failed on " + s.path);
   const nlohmann::json report =
       nlohmann::json::parse(readFileLimited(s.reportFile, "report", 1 << 20));
   return {seconds, report.at("seconds").at("total").get<double>()};
@@ -90,14 +75,14 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
       p.skipReason = "the diffreg tool is not beside diffreg-bench";
       return p;
     }
-    s.dir = fs::temp_directory_path() / ("diffreg-bench-" + std::to_string(::getpid()));
+    s.dir = std::make_unique<ScratchDirectory>();
+    const fs::path& dir = s.dir->path();
     Mesh mesh;
     std::string source;
     if (generated > 0) {
       BenchMesh made = sphereNear(generated);
       mesh = std::move(made.mesh);
-      fs::create_directories(s.dir);
-      s.path = (s.dir / (made.label + ".obj")).string();
+      s.path = (dir / (made.label + ".obj")).string();
       writeMesh(s.path, mesh);
       source = made.source + ", written as " + s.path;
     } else if (!sharedMesh(file, mesh, s.path)) {
@@ -112,10 +97,9 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
     s.handles = fixed;
     s.handles.insert(s.handles.end(), moved.begin(), moved.end());
     s.targets = moveTargets(rest, fixed, moved, 0.10, 3);
-    fs::create_directories(s.dir);
-    s.handleFile = (s.dir / "handles.json").string();
-    s.output = (s.dir / "out.ply").string();
-    s.reportFile = (s.dir / "report.json").string();
+    s.handleFile = (dir / "handles.json").string();
+    s.output = (dir / "out.ply").string();
+    s.reportFile = (dir / "report.json").string();
     writeHandleFile(s, fixed.size(), rest);
     p.source = source;
     p.vertices = mesh.numVertices();
@@ -123,15 +107,11 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
     p.facts["handle_vertices"] = static_cast<double>(s.handles.size());
     return p;
   };
-  c.release = [state] {
-    std::error_code ec;
-    if (!state->dir.empty()) fs::remove_all(state->dir, ec);
-    *state = OneShot();
-  };
+  c.release = [state] { *state = OneShot(); };  // removes the scratch directory
   c.run = [state] {
     const OneShot& s = *state;
     const auto [ours, readToWrite] = runTool(s);
-    const double cgal = cgalOneShotInChild(s.path, s.handles, s.targets, 1, s.dir.string());
+    const double cgal = cgalOneShotInChild(s.path, s.handles, s.targets, 1, s.dir->path());
     const double warm = cgalOneShot(s.path, s.handles, s.targets, 1);
     return Sample{{"ours", ours},
                   {"ours_read_to_write", readToWrite},
