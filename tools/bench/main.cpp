@@ -449,7 +449,8 @@ void printOneShot(const std::vector<Result>& results, std::ostream& out) {
          "by its report from reading the input to writing the output, against CGAL's "
          "Surface_mesh_deformation reading the same file, preprocessing and deforming once, "
          "timed inside a process of its own with the tool's heap settings (without its start "
-         "and exit; the targets take CGAL/ours, the whole process), and inside this "
+         "and exit; the targets take CGAL / ours from reading to writing, the span issue 13 "
+         "names), and inside this "
          "benchmark's process, whose memory earlier cases have warmed (ms).\n\n";
   t.print(out);
   out << "\n";
@@ -550,10 +551,13 @@ std::vector<Target> performanceTargets() {
   for (const char* mesh : {"rocker-arm", "armadillo", "beetle-20k"})
     targets.push_back({"4x faster than CGAL per iteration", std::string("peer/") + mesh,
                        "speedup_iteration", 4.0, true, "x"});
+  // The one-shot targets compare the tool from reading to writing (the span issue 13 names)
+  // with CGAL's read + preprocess + 1 iteration; the table shows the whole process beside.
   targets.push_back({"one-shot no slower than CGAL (read to write)", "oneshot/armadillo",
                      "speedup_oneshot", 1.0, true, "x"});
-  targets.push_back({"one-shot 2x faster than CGAL at 10K", "oneshot/rocker-arm",
-                     "speedup_oneshot", 2.0, true, "x"});
+  for (const char* mesh : {"rocker-arm", "sphere-10k"})
+    targets.push_back({"one-shot 2x faster than CGAL at 10K (read to write)",
+                       std::string("oneshot/") + mesh, "speedup_oneshot", 2.0, true, "x"});
   targets.push_back(
       {"handle move, 1 iteration < 0.5 s (1M surface)", "deform/surface/1m", "move1", 0.5});
   targets.push_back({"the same with the handle basis (editor)", "deform/surface/1m",
@@ -569,7 +573,7 @@ std::vector<Target> performanceTargets() {
 // ours to CGAL's, or the peak memory in MB.
 double measuredValue(const Target& g, const Result& r) {
   if (g.metric == "speedup_iteration") return r.get("cgal_iteration") / r.get("ours_iteration");
-  if (g.metric == "speedup_oneshot") return r.get("cgal") / r.get("ours");
+  if (g.metric == "speedup_oneshot") return r.get("cgal") / r.get("ours_read_to_write");
   if (g.metric == "speedup_preprocess")
     return r.get("cgal_preprocess") / r.get("ours_preprocess");
   // Peak memory targets in MB from the samples in MiB ("..._rss_mb" from "..._rss_mib").
