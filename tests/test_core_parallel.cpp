@@ -1,6 +1,6 @@
 // forChunks (modules/core/parallel.h): every chunk exactly once with its bounds, exceptions
 // reach the caller, and the loops of a process stay on the calling thread until they have
-// taken the serial budget, then run on the pool.
+// taken the serial budget, then run on the pool's threads.
 #include <diffreg/core/parallel.h>
 
 #include <catch2/catch.hpp>
@@ -8,6 +8,9 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <limits>
+#include <mutex>
+#include <set>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -15,7 +18,8 @@
 
 namespace parallel = diffreg::parallel;
 
-// First in this file, so in a process of its own under CTest: nothing has run a loop yet.
+// First in this file: CTest runs the file's cases in one process, in this order, so nothing has
+// run a loop yet (under Catch2's --order rand this case may find the pool started).
 TEST_CASE("loops stay on the calling thread until they have taken the serial budget",
           "[core][parallel]") {
   REQUIRE_FALSE(parallel::poolStarted());
@@ -26,22 +30,59 @@ TEST_CASE("loops stay on the calling thread until they have taken the serial bud
     order.push_back(chunk);
   });
   CHECK(order == std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9});
+  // A loop inside a body as well.
+  int inner = 0;
+  parallel::forChunks(4, 1, [&](int, int, int) {
+    parallel::forChunks(10, 1, [&](int, int, int) {
+      CHECK(std::this_thread::get_id() == caller);
+      ++inner;
+    });
+  });
+  CHECK(inner == 40);
   CHECK_FALSE(parallel::poolStarted());
 
-  // Five chunks of a quarter of the budget each: this loop passes it (and still runs on the
-  // caller), and the pool runs the loops from then on when there is more than one thread.
-  const auto quarter = std::chrono::duration<double>(parallel::serialBudget() / 4.0);
-  parallel::forChunks(5, 1, [&](int, int, int) {
-    CHECK(std::this_thread::get_id() == caller);
-    std::this_thread::sleep_for(quarter);
-  });
-  CHECK(parallel::poolStarted() == (parallel::threads() > 1));
-
-  std::vector<std::atomic<int>> visits(1000);
-  parallel::forChunks(1000, 7, [&](int, int begin, int end) {
-    for (int i = begin; i < end; ++i) ++visits[static_cast<size_t>(i)];
+  // Forty chunks of an eighth of the budget each: the chunks that run before the budget is
+  // spent stay on the caller, the rest go to the pool when there is more than one thread.
+  const auto eighth = std::chrono::duration<double>(parallel::serialBudget() / 8.0);
+  std::vector<std::atomic<int>> visits(40);
+  std::atomic<int> beforePool{0};
+  parallel::forChunks(40, 1, [&](int chunk, int, int) {
+    if (!parallel::poolStarted()) {
+      CHECK(std::this_thread::get_id() == caller);
+      ++beforePool;
+    }
+    ++visits[static_cast<size_t>(chunk)];
+    std::this_thread::sleep_for(eighth);
   });
   for (const auto& v : visits) CHECK(v.load() == 1);
+  CHECK(parallel::poolStarted() == (parallel::threads() > 1));
+  if (parallel::threads() > 1) {
+    CHECK(beforePool.load() >= 1);
+    CHECK(beforePool.load() <= 9);  // at least an eighth of the budget each
+  }
+}
+
+TEST_CASE("once the pool runs, chunks run on more than one thread", "[core][parallel]") {
+  if (parallel::threads() == 1) return;  // one processor: every loop runs on its caller
+  // Start the pool (the budget is the process's: one long loop spends it).
+  const auto budget = std::chrono::duration<double>(parallel::serialBudget());
+  parallel::forChunks(2, 1, [&](int, int, int) { std::this_thread::sleep_for(budget); });
+  REQUIRE(parallel::poolStarted());
+  // Two chunks that wait for each other: only two threads finish them before the deadline.
+  std::mutex mutex;
+  std::set<std::thread::id> ids;
+  std::atomic<int> arrived{0};
+  parallel::forChunks(2, 1, [&](int, int, int) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex);
+      ids.insert(std::this_thread::get_id());
+    }
+    ++arrived;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (arrived.load() < 2 && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::yield();
+  });
+  CHECK(ids.size() == 2);
 }
 
 TEST_CASE("forChunks calls every chunk once with its bounds", "[core][parallel]") {
@@ -62,6 +103,15 @@ TEST_CASE("forChunks calls every chunk once with its bounds", "[core][parallel]"
       CHECK(ends[static_cast<size_t>(c)] == std::min(n, (c + 1) * grain));
     }
   }
+  // Near INT_MAX the bounds do not overflow.
+  const int most = std::numeric_limits<int>::max(), half = 1 << 30;
+  CHECK(parallel::numChunks(most, half) == 2);
+  std::vector<std::pair<int, int>> bounds(2);
+  parallel::forChunks(most, half, [&](int chunk, int begin, int end) {
+    bounds[static_cast<size_t>(chunk)] = {begin, end};
+  });
+  CHECK(bounds[0] == std::pair<int, int>(0, half));
+  CHECK(bounds[1] == std::pair<int, int>(half, most));
   int called = 0;
   parallel::forChunks(0, 4, [&](int, int, int) { ++called; });
   CHECK(called == 0);

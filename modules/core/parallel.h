@@ -5,10 +5,11 @@
 // end of every loop (docs/benchmarks.md).
 //
 // Starting oneTBB's pool (loading its allocator, creating the workers, attaching the calling
-// thread) takes 2.5-3 ms here, more than a second thread saves in all the loops of a one-shot
-// run on a 10K-vertex mesh. So the loops of a process run on the calling thread until they have
-// taken serialBudget() together, and on the pool from then on: a short run never starts it, a
-// long one loses at most the budget's worth of parallel work.
+// thread) takes 2.3-3 ms here, more than a second thread saves in all the loops of a one-shot
+// run on a 10K-vertex mesh. So the loops of a process run on the calling thread, chunk by chunk,
+// until they have taken serialBudget() together; the chunks left at that moment and every later
+// loop run on the pool. A short run never starts it, a long one loses at most the budget's
+// worth of parallel work.
 #pragma once
 
 #include <functional>
@@ -21,7 +22,8 @@ int numChunks(int n, int grain);
 /// Calls body(chunk, begin, end) for every chunk [chunk * grain, min(n, (chunk + 1) * grain)) of
 /// [0, n) and returns when all are done. Chunks run concurrently (the caller included) when there
 /// is more than one chunk and more than one thread and the pool has started (a loop inside a
-/// body shares the threads); otherwise in order on the calling thread;
+/// body shares the threads); before that in order on the calling thread (a loop inside a body
+/// too);
 /// each chunk runs exactly once, so a body that writes only its chunk's outputs (or its own slot
 /// of a per-chunk array) is race-free, and per-chunk partial sums combined in chunk order give the
 /// same result for any number of threads. Exceptions thrown by the body are rethrown here (the
@@ -35,8 +37,8 @@ void forChunks(int n, int grain, const std::function<void(int chunk, int begin, 
 /// writes meshes gets the cap too, when it writes large ones.
 int threads();
 
-/// Seconds of loops with more than one chunk that run on the calling thread before the pool
-/// starts (the loop that passes it still runs there; the next ones run on the pool).
+/// Seconds the outermost loops of more than one chunk take on their calling threads, all
+/// together, before the pool starts.
 double serialBudget();
 
 /// Whether the loops run on the pool now (with more than one thread), for tests and reports.

@@ -220,8 +220,9 @@ class TextOut {
 };
 
 /// Rows [0, rows) of a text format, row i written by line(out, i): blocks of kRowBlock rows are
-/// formatted concurrently, up to kBlockRound blocks at a time (a few MB of text in memory), and
-/// written in order, so the file is the same as from one thread. Formatting the shortest
+/// formatted concurrently once the thread pool runs (parallel.h), up to kBlockRound blocks at a
+/// time (a few MB of text in memory), and written in order, so the file is the same as from one
+/// thread. Formatting the shortest
 /// round-trip digits is most of a writer's time (5.5 ms of a 10K-vertex PLY).
 template <typename Line>
 void writeRows(TextOut& out, int rows, const Line& line) {

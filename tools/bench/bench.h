@@ -71,9 +71,9 @@ std::string runProcess(const std::string& program, const std::vector<std::string
 /// kCgalOneShotFlag). A child's resource usage is the parent's getrusage(RUSAGE_CHILDREN) after.
 std::string runSelf(const std::vector<std::string>& args, const std::string& what);
 
-/// A new directory of its own under the system's temporary directory
-/// (diffreg-bench-<pid>-<count>), for the files a case hands a child process; removed with its
-/// contents when destroyed.
+/// A new directory of its own under the system's temporary directory (diffreg-bench-XXXXXX,
+/// mkdtemp), for the files a case hands a child process; removed with its contents when
+/// destroyed. \throw IoError when it cannot be created.
 class ScratchDirectory {
  public:
   ScratchDirectory();

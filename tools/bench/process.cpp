@@ -3,11 +3,13 @@
 #include <diffreg/core/error.h>
 #include "bench.h"
 
+#include <fcntl.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <atomic>
+#include <cerrno>
+#include <cstdlib>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -15,6 +17,18 @@
 extern char** environ;
 
 namespace diffreg::bench {
+namespace {
+
+// The child's exit status, or -1 when it cannot be waited for.
+int waitFor(pid_t pid) {
+  int status = 0;
+  for (;;) {
+    if (::waitpid(pid, &status, 0) == pid) return status;
+    if (errno != EINTR) return -1;
+  }
+}
+
+}  // namespace
 
 std::string runProcess(const std::string& program, const std::vector<std::string>& args,
                        const std::string& what) {
@@ -22,27 +36,44 @@ std::string runProcess(const std::string& program, const std::vector<std::string
   std::vector<char*> argv;
   for (auto& a : words) argv.push_back(a.data());
   argv.push_back(nullptr);
-  int fds[2];
-  if (pipe(fds) != 0) throw Error(what + ": pipe() failed");
+  // Both ends close on every path (the child's write end at its exec as well).
+  struct Pipe {
+    int fd[2] = {-1, -1};
+    ~Pipe() {
+      for (int f : fd)
+        if (f >= 0) ::close(f);
+    }
+    void close(int end) {
+      ::close(fd[end]);
+      fd[end] = -1;
+    }
+  } pipe;
+  if (::pipe2(pipe.fd, O_CLOEXEC) != 0) throw Error(what + ": pipe() failed");
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_addclose(&actions, fds[0]);
-  posix_spawn_file_actions_addclose(&actions, fds[1]);
+  posix_spawn_file_actions_adddup2(&actions, pipe.fd[1], STDOUT_FILENO);
   pid_t pid = 0;
   const int spawned = posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  close(fds[1]);
-  std::string output;
-  char buffer[256];
-  ssize_t got = 0;
-  while (spawned == 0 && (got = read(fds[0], buffer, sizeof buffer)) > 0)
-    output.append(buffer, static_cast<size_t>(got));
-  close(fds[0]);
+  pipe.close(1);
   if (spawned != 0) throw Error(what + ": cannot start " + program);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+  std::string output;
+  try {
+    char buffer[256];
+    for (;;) {
+      const ssize_t got = ::read(pipe.fd[0], buffer, sizeof buffer);
+      if (got > 0)
+        output.append(buffer, static_cast<size_t>(got));
+      else if (got == 0 || errno != EINTR)
+        break;
+    }
+  } catch (...) {
+    pipe.close(0);  // a child still writing ends, and is waited for
+    waitFor(pid);
+    throw;
+  }
+  const int status = waitFor(pid);
+  if (status == -1 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw Error(what + ": " + program + " failed");
   return output;
 }
@@ -54,10 +85,10 @@ std::string runSelf(const std::vector<std::string>& args, const std::string& wha
 }
 
 ScratchDirectory::ScratchDirectory() {
-  static std::atomic<int> made{0};
-  path_ = std::filesystem::temp_directory_path() /
-          ("diffreg-bench-" + std::to_string(::getpid()) + "-" + std::to_string(made++));
-  std::filesystem::create_directories(path_);
+  // A new directory with an unpredictable name (mkdtemp): never one left by another run.
+  std::string name = (std::filesystem::temp_directory_path() / "diffreg-bench-XXXXXX").string();
+  if (!::mkdtemp(name.data())) throw IoError("cannot create a directory like " + name);
+  path_ = name;
 }
 
 ScratchDirectory::~ScratchDirectory() {
