@@ -450,8 +450,8 @@ void printOneShot(const std::vector<Result>& results, std::ostream& out) {
          "Surface_mesh_deformation reading the same file, preprocessing and deforming once, "
          "timed inside a process of its own with the tool's heap settings (without its start "
          "and exit; the targets take CGAL / ours from reading to writing, the span issue 13 "
-         "names), and inside this "
-         "benchmark's process, whose memory earlier cases have warmed (ms).\n\n";
+         "names), and inside this benchmark's process, whose memory earlier cases have warmed "
+         "(ms).\n\n";
   t.print(out);
   out << "\n";
 }
@@ -495,11 +495,10 @@ void printMemory(const std::vector<Result>& results, std::ostream& out) {
   if (!any) return;
   out << "Memory: a surface session (mesh, discretization, eq. 8 weights, nonuniform ARAP, one "
          "5-iteration handle move) in a child process (this benchmark started again, run first). "
-         "peak RSS = the "
-         "child's VmHWM after that move; \"after X\" = its VmHWM once stage X is done (basis: "
-         "then the handle basis on, the editor's setting, and a move that builds it; edit: "
-         "one more 5-iteration move); ru_maxrss = "
-         "getrusage(RUSAGE_CHILDREN), which also counts the parent's peak when the child "
+         "peak RSS = the child's VmHWM after that move; \"after X\" = its VmHWM once stage X "
+         "is done (basis: then the handle basis on, the editor's setting, and a move that builds "
+         "it; edit: one more 5-iteration move); ru_maxrss = getrusage(RUSAGE_CHILDREN), which "
+         "also counts the parent's peak when the child "
          "started.\n\n";
   t.print(out);
 }
