@@ -6,8 +6,10 @@
 #include <diffreg/mesh/shapes.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <thread>
 #include <vector>
@@ -43,6 +45,18 @@ std::vector<bool> boundaryVertices(const Discretization& d) {
   return boundary;
 }
 
+// Element e's terms of K, measure * g g^T for its hat gradients g (K x 3, zero third column
+// on planar meshes), as (row, column, value) in row-major order.
+template <int K>
+void elementTerms(const Discretization& d, int e, std::vector<Eigen::Triplet<double>>& terms) {
+  Eigen::Matrix<double, K, 3> g = Eigen::Matrix<double, K, 3>::Zero();
+  g.leftCols(d.dim()) = d.gradient(e);
+  const Eigen::Matrix<double, K, K> Ke = d.measures()(e) * g * g.transpose();
+  for (int i = 0; i < K; ++i)
+    for (int j = 0; j < K; ++j)
+      terms.emplace_back(d.elements()(e, i), d.elements()(e, j), Ke(i, j));
+}
+
 }  // namespace
 
 TEST_CASE("K annihilates constants and its rows sum to zero", "[discretization]") {
@@ -59,6 +73,63 @@ TEST_CASE("K annihilates constants and its rows sum to zero", "[discretization]"
     const SparseMatrix asym = SparseMatrix(d.stiffness().transpose()) - d.stiffness();
     CHECK(asym.norm() < 1e-12);
   }
+}
+
+TEST_CASE("K sums each element's terms in element order, into every pair of its vertices",
+          "[discretization]") {
+  // The assembly against setFromTriplets on the same terms, bit for bit, with the vertices
+  // numbered out of order (a shuffled tet box), on a planar, a surface and a tet mesh.
+  const Discretization box(makeTetBox(2, 1, 1, 4, 3, 2));
+  const int n = box.numVertices();
+  Eigen::MatrixXd P(n, 3);
+  Eigen::MatrixXi T = box.elements();
+  const auto to = [n](int v) { return (v * 37 + 11) % n; };  // 37 is coprime to n = 60
+  for (int v = 0; v < n; ++v) P.row(to(v)) = box.rest().row(v);
+  for (Eigen::Index e = 0; e < T.rows(); ++e)
+    for (Eigen::Index i = 0; i < T.cols(); ++i) T(e, i) = to(T(e, i));
+  std::vector<Discretization> meshes;
+  meshes.emplace_back(makeRectangle(3, 2, 6, 4));
+  meshes.emplace_back(makeSphere(1, 12, 8));
+  meshes.emplace_back(MeshKind::Tet, P, T);
+  for (const Discretization& d : meshes) {
+    const int k = d.elementSize();
+    std::vector<Eigen::Triplet<double>> terms;
+    for (int e = 0; e < d.numElements(); ++e)
+      if (k == 4)
+        elementTerms<4>(d, e, terms);
+      else
+        elementTerms<3>(d, e, terms);
+    SparseMatrix expected(d.numVertices(), d.numVertices());
+    expected.setFromTriplets(terms.begin(), terms.end());
+    expected.makeCompressed();
+    const SparseMatrix& K = d.stiffness();
+    REQUIRE(K.nonZeros() == expected.nonZeros());
+    const Eigen::Index nnz = K.nonZeros();
+    CHECK(std::equal(K.outerIndexPtr(), K.outerIndexPtr() + K.outerSize() + 1,
+                     expected.outerIndexPtr()));
+    CHECK(std::equal(K.innerIndexPtr(), K.innerIndexPtr() + nnz, expected.innerIndexPtr()));
+    // Within a few ulps is not enough here: the same sums in the same order.
+    CHECK(std::memcmp(K.valuePtr(), expected.valuePtr(), sizeof(double) * nnz) == 0);
+  }
+}
+
+TEST_CASE("Tets: facets in the order of their sorted vertices, the mean over unique edges",
+          "[discretization]") {
+  const Discretization d(makeTetBox(2, 1, 1, 3, 2, 2));
+  for (size_t f = 1; f < d.facets().size(); ++f)
+    CHECK(d.facets()[f - 1].vertices < d.facets()[f].vertices);
+  std::vector<std::pair<int, int>> edges;
+  for (int e = 0; e < d.numElements(); ++e)
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const int a = d.elements()(e, i), b = d.elements()(e, j);
+        edges.emplace_back(std::min(a, b), std::max(a, b));
+      }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  double sum = 0.0;
+  for (const auto& [a, b] : edges) sum += (d.rest().row(a) - d.rest().row(b)).norm();
+  CHECK(d.meanEdgeLength() == sum / static_cast<double>(edges.size()));
 }
 
 TEST_CASE("K is assembled once, on first use, the same on every thread and in every copy",
