@@ -2,6 +2,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/parallel.h>
+#include <diffreg/core/sparse_entry.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -76,21 +77,6 @@ void scatterShares(const ResidualModel& model, const Stacked& t, const Stacked* 
     scatterShares<R, C, U, true>(model, t, F, reg, r, c, u, ids, first, count, b);
   else
     scatterShares<R, C, U, false>(model, t, F, reg, r, c, u, ids, first, count, b);
-}
-
-// The position of A(row, col) in A's values, for an entry in the pattern: a binary search of
-// the column's sorted rows without data-dependent branches. Its steps depend on the column's
-// length alone; std::lower_bound's branches mispredicted about every other step and held about
-// half of the assembly's time.
-inline int entryIndex(const int* outer, const int* inner, int row, int col) {
-  const int* base = inner + outer[col];
-  int len = outer[col + 1] - outer[col];
-  while (len > 1) {
-    const int half = len / 2;
-    base = base[half] <= row ? base + half : base;
-    len -= half;
-  }
-  return static_cast<int>(base - inner);
 }
 
 // Adds w B^T B to A's values for a block B of r rows whose columns are the unknowns ids[0, n),

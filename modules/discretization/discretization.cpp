@@ -2,12 +2,12 @@
 
 #include <diffreg/core/disjoint_sets.h>
 #include <diffreg/core/error.h>
+#include <diffreg/core/sparse_entry.h>
 #include <diffreg/mesh/halfedges.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
 #include <string>
 
@@ -278,19 +278,9 @@ SparseMatrix Discretization::assembleStiffness() const {
     g.leftCols(dim_) = grads_.block(static_cast<Eigen::Index>(e) * K, 0, K, dim_);
     const Eigen::Matrix<double, K, K> Ke = measures_(e) * g * g.transpose();
     for (int i = 0; i < K; ++i)
-      for (int j = 0; j < K; ++j) {
-        // Entry (row i, column j): the row's place among the column's sorted rows, by a
-        // binary search whose steps depend on the column's length alone (std::lower_bound's
-        // branches mispredict about every other step).
-        const int col = elements_(e, j), row = elements_(e, i);
-        const int* base = adjacency.data() + start[col];
-        for (int len = start[col + 1] - start[col]; len > 1;) {
-          const int half = len / 2;
-          base = base[half] <= row ? base + half : base;
-          len -= half;
-        }
-        values[base - adjacency.data()] += Ke(i, j);
-      }
+      for (int j = 0; j < K; ++j)
+        values[entryIndex(start.data(), adjacency.data(), elements_(e, i), elements_(e, j))] +=
+            Ke(i, j);
   }
   return stiffness;
 }
