@@ -125,7 +125,8 @@ void vertexAdjacency(const Eigen::MatrixXi& elements, int n, std::vector<int>& s
 // order of one sort of them all); the edges are the vertex adjacency's pairs a < b, summed in
 // the order of (a, b).
 double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements,
-                            std::vector<FacetRecord>& records) {
+                            std::vector<FacetRecord>& records, std::vector<int>& start,
+                            std::vector<int>& adjacency) {
   const int m = static_cast<int>(elements.rows()), n = static_cast<int>(P3.rows());
   std::vector<int> bucket(static_cast<size_t>(n) + 1, 0);
   std::vector<FacetRecord> unsorted;
@@ -149,7 +150,6 @@ double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& el
   }
   for (int v = 0; v < n; ++v)
     std::sort(records.begin() + bucket[v], records.begin() + bucket[v + 1]);
-  std::vector<int> start, adjacency;
   vertexAdjacency(elements, n, start, adjacency);
   double edgeSum = 0.0;
   std::size_t edges = 0;
@@ -260,13 +260,13 @@ void Discretization::buildElements(const Eigen::MatrixXd& P3, double tinyMeasure
 // element's third column (not stored) is zero on an exactly flat mesh; on one flat only to within
 // the planar test's 1e-12 of the diagonal, K leaves out those columns' negligible terms.
 template <int K>
-SparseMatrix Discretization::assembleStiffness() const {
+SparseMatrix Discretization::assembleStiffness(std::vector<int>& start,
+                                               std::vector<int>& adjacency) const {
   // Straight into the pattern of the vertex adjacency (every pair of vertices of an element),
   // each entry summing its terms in element order as setFromTriplets would (from -0.0, which
   // adds no term's sign of zero), without the m K^2 triplets (288 MB on a 2M-face surface).
   const int n = numVertices(), m = numElements();
-  std::vector<int> start, adjacency;
-  vertexAdjacency(elements_, n, start, adjacency);
+  if (start.empty()) vertexAdjacency(elements_, n, start, adjacency);
   SparseMatrix stiffness(n, n);
   stiffness.resizeNonZeros(static_cast<Eigen::Index>(adjacency.size()));
   std::copy(start.begin(), start.end(), stiffness.outerIndexPtr());
@@ -282,6 +282,8 @@ SparseMatrix Discretization::assembleStiffness() const {
         values[entryIndex(start.data(), adjacency.data(), elements_(e, i), elements_(e, j))] +=
             Ke(i, j);
   }
+  std::vector<int>().swap(start);  // the pattern lives on in K
+  std::vector<int>().swap(adjacency);
   return stiffness;
 }
 
@@ -292,7 +294,10 @@ const SparseMatrix& Discretization::stiffness() const {
   }
   Stiffness& s = *stiffness_;
   std::call_once(
-      s.once, [&] { s.K = elementSize() == 4 ? assembleStiffness<4>() : assembleStiffness<3>(); });
+      s.once, [&] {
+        s.K = elementSize() == 4 ? assembleStiffness<4>(s.start, s.adjacency)
+                                 : assembleStiffness<3>(s.start, s.adjacency);
+      });
   return s.K;
 }
 
@@ -339,7 +344,8 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
 
   std::vector<FacetRecord> records;  // tets: adjacency by sorting their facets
   if (k == 4)
-    meanEdge_ = tetFacetsAndMeanEdge(P3, elements, records);
+    meanEdge_ = tetFacetsAndMeanEdge(P3, elements, records, stiffness_->start,
+                                     stiffness_->adjacency);
   else
     meanEdge_ = edgeFacets(P3, *topology, facets_);
   const double tinyMeasure = 1e-14 * std::pow(meanEdge_, kind == MeshKind::Tet ? 3 : 2);

@@ -119,7 +119,7 @@ class Discretization {
   template <int K>
   void buildElements(const Eigen::MatrixXd& P3, double tinyMeasure);
   template <int K>
-  SparseMatrix assembleStiffness() const;
+  SparseMatrix assembleStiffness(std::vector<int>& start, std::vector<int>& adjacency) const;
   void buildComponents(int n);
 
   MeshKind kind_ = MeshKind::Surface;
@@ -133,6 +133,9 @@ class Discretization {
   struct Stiffness {
     std::once_flag once;
     SparseMatrix K;
+    // K's pattern, the vertex adjacency as compressed rows, when build() made it already (tets:
+    // the mean edge length); released once K is assembled.
+    std::vector<int> start, adjacency;
   };
   std::shared_ptr<Stiffness> stiffness_ = std::make_shared<Stiffness>();
   Eigen::VectorXd mass_;
