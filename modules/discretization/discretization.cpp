@@ -128,25 +128,31 @@ double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& el
                             std::vector<FacetRecord>& records, std::vector<int>& start,
                             std::vector<int>& adjacency) {
   const int m = static_cast<int>(elements.rows()), n = static_cast<int>(P3.rows());
+  // Facet i of tet e: its other three vertices, sorted. Made twice (to count the buckets, then
+  // into them) rather than kept in an array of all records between the two passes.
+  const auto record = [&elements](int e, int i) {
+    FacetRecord r{{-1, -1, -1}, e};
+    int c = 0;
+    for (int j = 0; j < 4; ++j)
+      if (j != i) r.key[c++] = elements(e, j);
+    // Three compare-exchanges; std::sort's general loop costs more than the rest of the record.
+    if (r.key[0] > r.key[1]) std::swap(r.key[0], r.key[1]);
+    if (r.key[1] > r.key[2]) std::swap(r.key[1], r.key[2]);
+    if (r.key[0] > r.key[1]) std::swap(r.key[0], r.key[1]);
+    return r;
+  };
   std::vector<int> bucket(static_cast<size_t>(n) + 1, 0);
-  std::vector<FacetRecord> unsorted;
-  unsorted.reserve(static_cast<size_t>(m) * 4);
-  for (int e = 0; e < m; ++e) {
-    for (int i = 0; i < 4; ++i) {
-      FacetRecord r{{-1, -1, -1}, e};
-      int c = 0;
-      for (int j = 0; j < 4; ++j)
-        if (j != i) r.key[c++] = elements(e, j);
-      std::sort(r.key.begin(), r.key.end());
-      unsorted.push_back(r);
-      ++bucket[static_cast<size_t>(r.key[0]) + 1];
-    }
-  }
+  for (int e = 0; e < m; ++e)
+    for (int i = 0; i < 4; ++i) ++bucket[static_cast<size_t>(record(e, i).key[0]) + 1];
   for (int v = 0; v < n; ++v) bucket[v + 1] += bucket[v];
-  records.resize(unsorted.size());
+  records.resize(static_cast<size_t>(m) * 4);
   {
     std::vector<int> fill(bucket.begin(), bucket.end() - 1);
-    for (const FacetRecord& r : unsorted) records[static_cast<size_t>(fill[r.key[0]]++)] = r;
+    for (int e = 0; e < m; ++e)
+      for (int i = 0; i < 4; ++i) {
+        const FacetRecord r = record(e, i);
+        records[static_cast<size_t>(fill[r.key[0]]++)] = r;
+      }
   }
   for (int v = 0; v < n; ++v)
     std::sort(records.begin() + bucket[v], records.begin() + bucket[v + 1]);
