@@ -299,11 +299,10 @@ const SparseMatrix& Discretization::stiffness() const {
     return empty;
   }
   Stiffness& s = *stiffness_;
-  std::call_once(
-      s.once, [&] {
-        s.K = elementSize() == 4 ? assembleStiffness<4>(s.start, s.adjacency)
-                                 : assembleStiffness<3>(s.start, s.adjacency);
-      });
+  std::call_once(s.once, [&] {
+    s.K = elementSize() == 4 ? assembleStiffness<4>(s.start, s.adjacency)
+                             : assembleStiffness<3>(s.start, s.adjacency);
+  });
   return s.K;
 }
 
@@ -350,8 +349,8 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
 
   std::vector<FacetRecord> records;  // tets: adjacency by sorting their facets
   if (k == 4)
-    meanEdge_ = tetFacetsAndMeanEdge(P3, elements, records, stiffness_->start,
-                                     stiffness_->adjacency);
+    meanEdge_ =
+        tetFacetsAndMeanEdge(P3, elements, records, stiffness_->start, stiffness_->adjacency);
   else
     meanEdge_ = edgeFacets(P3, *topology, facets_);
   const double tinyMeasure = 1e-14 * std::pow(meanEdge_, kind == MeshKind::Tet ? 3 : 2);
