@@ -1,13 +1,16 @@
 // The benchmark cases on diffreg itself: diffused weights (eq. 7 / eq. 8), the regularized ARAP
 // session, the CGAL peer's problem set-up and the memory probe's session.
-#include "bench.h"
 #include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
 #include <diffreg/core/timer.h>
 #include <diffreg/deformation/deformer.h>
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/mesh/io.h>
 #include <diffreg/mesh/shapes.h>
 #include <diffreg/weights/diffusion.h>
+#include "bench.h"
+
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -125,11 +128,19 @@ constexpr PaperWeights kPaper1k{0.008, 0.032, 0.001, 0.002};  // car body, 984 V
 constexpr PaperWeights kPaper4k{1.13, 8.5, 0.011, 0.030};     // rocker arm, 3,696 V
 constexpr PaperWeights kPaper21k{9.04, 52.8, 0.06, 0.17};     // chair, 21,342 V
 
+// The files of a weights case's tool run: the diffreg tool beside this benchmark, the mesh (the
+// shared file, or the generated mesh written out), the handle file, the output and the report.
+struct ToolRun {
+  std::unique_ptr<ScratchDirectory> dir;
+  std::string tool, mesh, handles, output, report;
+};
+
 // Everything a case builds before its repeats, shared by its prepare/run/release closures.
 struct State {
   BenchMesh mesh;
   std::unique_ptr<Discretization> disc;
   WeightHandles weightHandles;
+  ToolRun toolRun;  // weights, the default scheme only; empty without the tool
   std::vector<int> fixed, moved, handles;  // deformation: both ends, fixed first
   Eigen::VectorXd weights;                 // deformation: diffused regularization weights
 };
@@ -170,6 +181,50 @@ Prepared prepareWeights(State& state, const std::function<BenchMesh()>& make) {
   p.facts["handles"] = static_cast<double>(state.weightHandles.sets.size());
   p.facts["handle_vertices"] = fixed;
   return p;
+}
+
+// Sets up the tool's run of the diffuse_weights filter at its defaults (eq. 8 by PCG) with the
+// case's handles, ranges and magnitudes; leaves `run` empty when the tool is not beside this
+// benchmark.
+void prepareToolRun(const State& state, ToolRun& run) {
+  run = ToolRun();
+  const std::string tool = besideThisExecutable("diffreg");
+  if (tool.empty() || !std::filesystem::exists(tool)) return;
+  run.dir = std::make_unique<ScratchDirectory>();
+  const std::filesystem::path& dir = run.dir->path();
+  run.tool = tool;
+  if (std::filesystem::exists(state.mesh.source)) {
+    run.mesh = state.mesh.source;  // a shared mesh, read from its file
+  } else {
+    run.mesh = (dir / (state.mesh.label + (state.mesh.mesh.isTet() ? ".mesh" : ".obj"))).string();
+    writeMesh(run.mesh, state.mesh.mesh);
+  }
+  const WeightHandles& h = state.weightHandles;
+  nlohmann::json handles = nlohmann::json::array();
+  for (size_t j = 0; j < h.sets.size(); ++j)
+    handles.push_back({{"name", "h" + std::to_string(j)},
+                       {"vertices", h.sets[j]},
+                       {"range", h.ranges[j]},
+                       {"magnitude", h.magnitudes[j]}});
+  run.handles = (dir / "handles.json").string();
+  std::ofstream(run.handles) << nlohmann::json{{"handles", handles}}.dump();
+  run.output = (dir / "out.ply").string();
+  run.report = (dir / "report.json").string();
+}
+
+// The diffuse_weights filter's own seconds from the tool's report: `diffreg -i MESH --handles H
+// --filter diffuse_weights -o OUT.ply --report R` in a process of its own.
+double toolFilterSeconds(const ToolRun& run) {
+  runProcess(run.tool,
+             {run.tool, "-i", run.mesh, "--handles", run.handles, "--filter", "diffuse_weights",
+              "-o", run.output, "--quiet", "--report", run.report},
+             "weights filter on " + run.mesh);
+  const nlohmann::json report =
+      nlohmann::json::parse(readFileLimited(run.report, "report", 1 << 20));
+  const nlohmann::json& filter = report.at("filters").at(0);
+  if (filter.at("name") != "diffuse_weights")
+    throw Error("weights: the tool's report has no diffuse_weights filter first");
+  return filter.at("seconds").get<double>();
 }
 
 // The editor's weights session (DiffusionWeights::setHandleBasis): its first solve (one block
@@ -249,8 +304,11 @@ Sample runWeights(const State& state, const WeightScheme& scheme) {
                 {"resolve", resolve},
                 {"resolve_solve", s3.solveSeconds},
                 {"resolve_again", resolveAgain}};
-  if (scheme.solve == DiffusionSolve::Pcg && scheme.order == DiffusionOrder::Second)
+  if (scheme.solve == DiffusionSolve::Pcg && scheme.order == DiffusionOrder::Second) {
     addEditorWeights(disc, h, p, sample);
+    if (!state.toolRun.tool.empty())
+      sample.emplace_back("tool_filter", toolFilterSeconds(state.toolRun));
+  }
   return sample;
 }
 
@@ -265,8 +323,13 @@ void addWeightCase(std::vector<Case>& cases, const std::string& label,
     c.name = std::string("weights/") + scheme.name + "/" + label;
     c.paper = {{"factor", first ? paper.factor7 : paper.factor8},
                {"resolve", first ? paper.solve7 : paper.solve8}};
-    c.prepare = [state, make] { return prepareWeights(*state, make); };
-    c.release = [state] { *state = State(); };
+    const bool tool = scheme.order == DiffusionOrder::Second && scheme.solve == DiffusionSolve::Pcg;
+    c.prepare = [state, make, tool] {
+      Prepared p = prepareWeights(*state, make);
+      if (p.available && tool) prepareToolRun(*state, state->toolRun);
+      return p;
+    };
+    c.release = [state] { *state = State(); };  // removes the tool run's scratch directory
     c.run = [state, scheme] { return runWeights(*state, scheme); };
     cases.push_back(std::move(c));
   }

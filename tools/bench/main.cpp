@@ -42,7 +42,8 @@ void printUsage(std::ostream& out) {
          "                     [--meshes DIR] [--plain-cap N]\n\n"
          "Times, as the median of N repeats (default 5; --quick: 3 repeats on small meshes):\n"
          "  weights/eq7|eq8/MESH  symbolic analysis, numeric factorization and solve of the\n"
-         "                        diffused weights (paper eq. 7 / eq. 8) beside the paper's §4\n"
+         "                        diffused weights (paper eq. 7 / eq. 8) beside the paper's §4;\n"
+         "                        eq8: also the diffreg tool's whole filter (a child process)\n"
          "  deform/KIND/SIZE      nonuniformly regularized ARAP: factorization, one iteration,\n"
          "                        handle moves of 1 and 5 iterations; fitted growth exponents\n"
          "  peer/sphere-SIZE      plain ARAP against CGAL's Surface_mesh_deformation\n"
@@ -224,7 +225,8 @@ std::string caseLabel(const Result& r) { return r.c->name; }
 
 void printWeights(const std::vector<Result>& results, std::ostream& out) {
   Table t({"case", "V", "elements", "symbolic", "numeric", "factor", "solve", "refactor", "resolve",
-           "paper factor", "paper solve", "paper/ours factor", "paper/ours solve"});
+           "filter", "tool filter", "paper factor", "paper solve", "paper/ours factor",
+           "paper/ours solve"});
   bool any = false;
   for (const Result& r : results) {
     if (r.c->group != "weights" || r.medians.empty()) continue;
@@ -232,8 +234,9 @@ void printWeights(const std::vector<Result>& results, std::ostream& out) {
     const double pf = r.c->paper.at("factor"), ps = r.c->paper.at("resolve");
     t.add({caseLabel(r), std::to_string(r.prepared.vertices), std::to_string(r.prepared.elements),
            ms(r.get("symbolic")), ms(r.get("numeric")), ms(r.get("factor")), ms(r.get("solve")),
-           ms(r.get("refactor")), ms(r.get("resolve")), ms(pf), ms(ps),
-           num(pf / r.get("factor"), 1), num(ps / r.get("resolve"), 1)});
+           ms(r.get("refactor")), ms(r.get("resolve")), ms(r.get("filter")),
+           ms(r.get("tool_filter")), ms(pf), ms(ps), num(pf / r.get("factor"), 1),
+           num(ps / r.get("resolve"), 1)});
   }
   if (!any) return;
   out << "Weights (ms). eq8 = second order by PCG (the default), eq8-direct = by the Cholesky "
@@ -241,7 +244,11 @@ void printWeights(const std::vector<Result>& results, std::ostream& out) {
          "(partition, assembly incl. K N^-1 K for eq8-direct, symbolic, numeric); solve = its "
          "solve phase (eq8: the whole CG); "
          "refactor = whole solve() after a new t (numeric only); resolve = whole solve() after a "
-         "new magnitude (right-hand side only). Paper: car 984 V, rocker arm 3,696 V / 13,088 "
+         "new magnitude (right-hand side only); filter = discretization + the first solve, in "
+         "this process (its default heap, which gives freed memory back: every repeat faults its "
+         "arrays in again); tool filter (eq8) = the diffuse_weights filter's own seconds in the "
+         "report of the diffreg tool run in a process of its own on the same mesh and handles "
+         "(its heap settings, huge pages). Paper: car 984 V, rocker arm 3,696 V / 13,088 "
          "tets, chair 21,342 V / 92,500 tets (§4).\n\n";
   t.print(out);
 }
@@ -528,12 +535,21 @@ std::vector<Target> performanceTargets() {
   }
   targets.push_back(
       {"eq. 8 factorization < 2 ms (1K surface)", "weights/eq8/sphere-1k", "factor", 0.002});
-  // Issue 13: the whole second-order weights by PCG. On the monkey, what the filter computes
-  // (discretization included); on the 1K surface, the session's first solve.
-  targets.push_back(
-      {"eq. 8 weights filter < 0.25 s (tet-monkey)", "weights/eq8/tet-monkey", "filter", 0.25});
-  targets.push_back(
-      {"eq. 8 whole first solve < 2 ms (1K surface)", "weights/eq8/sphere-1k", "whole", 0.002});
+  // Issue 13: the whole second-order weights filter by PCG, as the tool runs it (its report),
+  // and in this process: on the monkey what the filter computes (discretization included), on
+  // the 1K surface the session's first solve.
+  for (const char* mesh : {"tet-monkey", "sphere-1k"}) {
+    const bool monkey = std::string(mesh) == "tet-monkey";
+    const std::string name = std::string("weights/eq8/") + mesh;
+    const double limit = monkey ? 0.25 : 0.002;
+    const std::string what = std::string("eq. 8 weights filter < ") + (monkey ? "0.25 s" : "2 ms") +
+                             " (" + (monkey ? "tet-monkey" : "1K surface");
+    targets.push_back({what + ", the tool)", name, "tool_filter", limit});
+    targets.push_back(monkey
+                          ? Target{what + ", in this process)", name, "filter", limit}
+                          : Target{"eq. 8 whole first solve < 2 ms (1K surface, in this process)",
+                                   name, "whole", limit});
+  }
   targets.push_back(
       {"handle move, 1 iteration < 5 ms (10K surface)", "deform/surface/10k", "move1", 0.005});
   targets.push_back(
