@@ -70,6 +70,18 @@ TEST_CASE("A matrix that is not positive definite is a SingularSystem", "[solver
   }
 }
 
+TEST_CASE("An indefinite matrix without a zero pivot is a SingularSystem", "[solver]") {
+  // The simplicial factor is LDL^T, which succeeds on these: its pivots are checked.
+  SparseMatrix lastNegative = pathLaplacian(10) + 0.1 * identity(10);
+  lastNegative.coeffRef(9, 9) = -5.0;
+  for (const SparseMatrix& A : {SparseMatrix(-1.0 * identity(10)), lastNegative})
+    for (SolverBackend backend : {SolverBackend::Cholmod, SolverBackend::Eigen}) {
+      SpdSolver solver(backend);
+      CHECK_THROWS_AS(solver.compute(A), SingularSystem);
+      CHECK_THROWS_AS(solver.solve(Eigen::MatrixXd::Ones(10, 1)), SingularSystem);
+    }
+}
+
 TEST_CASE("Dirichlet elimination: harmonic interpolation of a linear function is linear",
           "[solver]") {
   const int n = 30;

@@ -572,6 +572,8 @@ void RegularizedSystem::prepare() {
     try {
       solver_.setMatrix(A_, !patternChanged_);
       patternChanged_ = false;
+    } catch (const NonFiniteSolution&) {
+      throw;  // sliver elements: the caller names the thinnest
     } catch (const SingularSystem& e) {
       // E.g. lARAP on a flat surface leaves out-of-plane motion free to first order.
       throw SingularSystem(std::string("deformation: the ") + toString(model_.energy()) +

@@ -19,7 +19,7 @@ SolverStats operator-(const SolverStats& a, const SolverStats& b);
 
 /// What the last symbolic analysis chose, for reports and benchmarks.
 struct SolverInfo {
-  std::string method;           ///< e.g. "CHOLMOD supernodal LL^T", "CHOLMOD simplicial LL^T"
+  std::string method;           ///< e.g. "CHOLMOD supernodal LL^T", "CHOLMOD simplicial LDL^T"
   std::string ordering;         ///< fill-reducing ordering: "AMD", "METIS", ...
   double factorNonZeros = 0.0;  ///< nnz(L) (CHOLMOD only, else 0)
   double flops = 0.0;           ///< flops of the numeric factorization (CHOLMOD only, else 0)
