@@ -100,6 +100,60 @@ TEST_CASE("The range grows monotonically with t and with r_j", "[weights]") {
   }
 }
 
+TEST_CASE("Each vertex takes the range of its nearest handle along the mesh's edges", "[weights]") {
+  // On a U the nearest handle along edges is not the nearest in space: the left arm's top is
+  // closer in space to the right arm's top handle than to the left arm's bottom one.
+  const Discretization d(makeUShape(1.0, 1.0, 4.0, 4));
+  const std::vector<int> sets[] = {
+      {nearest(d, {0.5, 0.0, 0})}, {nearest(d, {2.5, 4.0, 0})}, {nearest(d, {2.5, 1.0, 0})}};
+  const double ranges[] = {2.0, 3.0, 5.0};
+  DiffusionWeights w(d);
+  w.setHandles({sets[0], sets[1], sets[2]}, {ranges[0], ranges[1], ranges[2]}, {1, 1, 1});
+  w.setParams(params(0.1, DiffusionOrder::Second));
+  w.solve();
+  const Eigen::VectorXd r = w.rangeField();
+  // Reference: edge-path distances from each handle by Bellman-Ford relaxation over K's pattern.
+  const SparseMatrix& K = d.stiffness();
+  const int n = d.numVertices();
+  int checked = 0;
+  std::vector<std::vector<double>> dist;
+  for (const std::vector<int>& set : sets) {
+    std::vector<double> x(static_cast<size_t>(n), INFINITY);
+    x[static_cast<size_t>(set[0])] = 0.0;
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (int v = 0; v < n; ++v)
+        for (SparseMatrix::InnerIterator it(K, v); it; ++it) {
+          const double via =
+              x[static_cast<size_t>(v)] + (d.rest().row(v) - d.rest().row(it.row())).norm();
+          if (via < x[static_cast<size_t>(it.row())] - 1e-12) {
+            x[static_cast<size_t>(it.row())] = via;
+            changed = true;
+          }
+        }
+    }
+    dist.push_back(x);
+  }
+  for (int v = 0; v < n; ++v) {
+    double best = INFINITY, second = INFINITY;
+    int owner = -1;
+    for (int j = 0; j < 3; ++j) {
+      const double x = dist[static_cast<size_t>(j)][static_cast<size_t>(v)];
+      if (x < best) {
+        second = best;
+        best = x;
+        owner = j;
+      } else {
+        second = std::min(second, x);
+      }
+    }
+    if (second - best < 1e-9) continue;  // a tie: either handle's range
+    CHECK(r(v) == ranges[owner]);
+    ++checked;
+  }
+  CHECK(checked > n / 2);
+}
+
 TEST_CASE("Weights are shape-aware: across the gap of a U they are far smaller", "[weights]") {
   // Arms of width 1 and height 4 around a gap of width 1; handle at the top of the left arm.
   const Discretization d(makeUShape(1.0, 1.0, 4.0, 4));

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <queue>
 #include <sstream>
 
 namespace diffreg {
@@ -118,39 +117,90 @@ Eigen::VectorXd DiffusionCore::rangeField() const {
   return r;
 }
 
+namespace {
+
+// The nearest handle of every vertex (-1 when none is reachable) by a multi-source Dijkstra
+// along the edges of the pattern of K, edge lengths from the rest positions X. The vertices are
+// settled in the order of (distance, index), and a vertex takes the handle of the first settled
+// neighbour that gives it its distance. The queue holds each vertex at most once, at its current
+// distance (a binary heap with positions, lowered in place), where a queue of (distance, vertex)
+// pairs pushed on every improvement would hold stale entries: about half the heap operations on
+// a mesh, and a heap operation's branches are what the search waits on.
+std::vector<int> nearestHandles(const SparseMatrix& K, const Eigen::MatrixXd& X,
+                                const std::vector<std::vector<int>>& sets) {
+  const int n = static_cast<int>(K.cols());
+  std::vector<int> owner(static_cast<size_t>(n), -1), heap, at(static_cast<size_t>(n), -1);
+  std::vector<double> dist(static_cast<size_t>(n), INFINITY);
+  std::vector<bool> settled(static_cast<size_t>(n), false);
+  heap.reserve(static_cast<size_t>(n));
+  const auto before = [&dist](int a, int b) {
+    return dist[a] < dist[b] || (dist[a] == dist[b] && a < b);
+  };
+  const auto place = [&](int v, int i) {
+    heap[static_cast<size_t>(i)] = v;
+    at[static_cast<size_t>(v)] = i;
+  };
+  const auto up = [&](int i) {
+    const int v = heap[static_cast<size_t>(i)];
+    for (int parent; i > 0 && before(v, heap[static_cast<size_t>(parent = (i - 1) / 2)]);
+         i = parent)
+      place(heap[static_cast<size_t>(parent)], i);
+    place(v, i);
+  };
+  const auto down = [&](int i) {
+    const int v = heap[static_cast<size_t>(i)], size = static_cast<int>(heap.size());
+    for (int child; (child = 2 * i + 1) < size; i = child) {
+      if (child + 1 < size &&
+          before(heap[static_cast<size_t>(child + 1)], heap[static_cast<size_t>(child)]))
+        ++child;
+      if (!before(heap[static_cast<size_t>(child)], v)) break;
+      place(heap[static_cast<size_t>(child)], i);
+    }
+    place(v, i);
+  };
+  for (size_t j = 0; j < sets.size(); ++j)
+    for (int v : sets[j]) {
+      owner[static_cast<size_t>(v)] = static_cast<int>(j);
+      dist[static_cast<size_t>(v)] = 0.0;
+      heap.push_back(v);
+      up(static_cast<int>(heap.size()) - 1);
+    }
+  const int* outer = K.outerIndexPtr();
+  const int* inner = K.innerIndexPtr();
+  while (!heap.empty()) {
+    const int v = heap.front();
+    settled[static_cast<size_t>(v)] = true;
+    heap.front() = heap.back();
+    heap.pop_back();
+    if (!heap.empty()) down(0);
+    const double d = dist[static_cast<size_t>(v)];
+    for (int e = outer[v]; e < outer[v + 1]; ++e) {
+      const int w = inner[e];
+      if (settled[static_cast<size_t>(w)]) continue;
+      const double dw = d + (X.row(v) - X.row(w)).norm();
+      if (!(dw < dist[static_cast<size_t>(w)])) continue;
+      dist[static_cast<size_t>(w)] = dw;
+      owner[static_cast<size_t>(w)] = owner[static_cast<size_t>(v)];
+      if (at[static_cast<size_t>(w)] < 0) heap.push_back(w);
+      up(at[static_cast<size_t>(w)] < 0 ? static_cast<int>(heap.size()) - 1
+                                        : at[static_cast<size_t>(w)]);
+    }
+  }
+  return owner;
+}
+
+}  // namespace
+
 // Fixed unknowns (handles, unreferenced vertices), K's blocks, and the nearest handle of every
-// vertex by a multi-source Dijkstra along mesh edges (the pattern of K).
+// vertex along mesh edges (the pattern of K).
 void DiffusionCore::preparePartition() {
   const int n = disc_.numVertices();
   std::vector<bool> fixed(n, false);
   for (int v = 0; v < n; ++v) fixed[v] = !disc_.active()[v];
-  owner_.assign(n, -1);
-  std::vector<double> dist(n, INFINITY);
-  using Item = std::pair<double, int>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
-  for (size_t j = 0; j < sets_.size(); ++j)
-    for (int v : sets_[j]) {
-      fixed[v] = true;
-      owner_[v] = static_cast<int>(j);
-      dist[v] = 0.0;
-      queue.emplace(0.0, v);
-    }
+  for (const std::vector<int>& set : sets_)
+    for (int v : set) fixed[v] = true;
   const SparseMatrix& K = disc_.stiffness();
-  const Eigen::MatrixXd& X = disc_.rest();
-  while (!queue.empty()) {
-    const auto [d, v] = queue.top();
-    queue.pop();
-    if (d > dist[v]) continue;
-    for (SparseMatrix::InnerIterator it(K, v); it; ++it) {
-      const int w = static_cast<int>(it.row());
-      const double dw = d + (X.row(v) - X.row(w)).norm();
-      if (dw < dist[w]) {
-        dist[w] = dw;
-        owner_[w] = owner_[v];
-        queue.emplace(dw, w);
-      }
-    }
-  }
+  owner_ = nearestHandles(K, disc_.rest(), sets_);
   partition_ = Partition(fixed);
   KFF_ = partition_.freeFree(K);
   KFJ_ = partition_.freeFixed(K);
