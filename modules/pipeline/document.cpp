@@ -19,10 +19,9 @@ const Discretization& Document::restDiscretization() const {
                      c->rest.cols() == rest.cols() && c->rest == rest &&
                      c->elements.rows() == mesh.numElements() && c->elements == mesh.elements();
   if (!valid) {
-    const Eigen::MatrixXi elements = mesh.elements();
-    restCache_ = std::make_shared<const RestCache>(
-        RestCache{mesh.kind(), rest, elements,
-                  std::make_shared<const Discretization>(mesh, rest)});
+    auto disc = std::make_shared<const Discretization>(mesh, rest);
+    const Eigen::MatrixXi& elements = disc->elements();  // the mesh's, read once
+    restCache_ = std::make_shared<const RestCache>(RestCache{mesh.kind(), rest, elements, disc});
   }
   return *restCache_->disc;
 }

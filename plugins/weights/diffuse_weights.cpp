@@ -62,27 +62,21 @@ FilterResult DiffuseWeightsFilter::apply(Document& doc, const ParamMap& params) 
   EditParams edit;
   edit.scheme = WeightScheme::Diffusion;
   edit.diffusion = diffusionParamsOf(params);
-  const UpdateReport report = engineWeights(doc, std::move(edit));
+  WeightsRun run = engineWeights(doc, std::move(edit));
+  const UpdateReport& report = run.report;
 
   FilterResult result;
   result.stats = report.weights;
-  result.data = weightSummary(doc.engine().weights(), doc.restDiscretization().active());
+  result.data = std::move(run.summary);
   result.data["t_absolute"] = report.absoluteTime;
   result.data["cg_iterations"] = report.diffusionSolve.cgIterations;
   result.data["cg_residual"] = report.diffusionSolve.cgResidual;
   return result;
 }
 
-UpdateReport engineWeights(Document& doc, EditParams edit) {
-  edit.deform = false;
-  edit.reference = false;
-  EditEngine& engine = doc.engine();
-  engine.setEdit(doc.handles, std::move(edit));
-  UpdateReport report = engine.updateOrThrow();
-  doc.mesh.setVertexScalar(prop::weight, engine.weights());
-  return report;
-}
+namespace {
 
+// min, max and mean of per-vertex weights over the vertices marked `used`.
 nlohmann::json weightSummary(const Eigen::VectorXd& weights, const std::vector<bool>& used) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
   int count = 0;
@@ -94,6 +88,20 @@ nlohmann::json weightSummary(const Eigen::VectorXd& weights, const std::vector<b
     ++count;
   }
   return {{"min", count ? lo : 0.0}, {"max", count ? hi : 0.0}, {"mean", count ? sum / count : 0.0}};
+}
+
+}  // namespace
+
+WeightsRun engineWeights(Document& doc, EditParams edit) {
+  edit.deform = false;
+  edit.reference = false;
+  EditEngine& engine = doc.engine();
+  engine.setEdit(doc.handles, std::move(edit));
+  WeightsRun run{engine.updateOrThrow(), {}};
+  doc.mesh.setVertexScalar(prop::weight, engine.weights());
+  // The engine's own discretization: asking the document again would check its cache anew.
+  run.summary = weightSummary(engine.weights(), engine.sharedDiscretization()->active());
+  return run;
 }
 
 void registerWeightsFilters(Registry& registry) {

@@ -15,13 +15,16 @@ namespace diffreg {
 /// The diffusion parameters diffuse_weights's parameters say (t, t_unit, order, steps, solve).
 DiffusionParams diffusionParamsOf(const ParamMap& params);
 
+/// What engineWeights() did: the engine's report, and the min, max and mean of the weights
+/// over the referenced vertices (the weight filters' report data).
+struct WeightsRun {
+  UpdateReport report;
+  nlohmann::json summary;
+};
+
 /// The weights of `edit`'s scheme for the document's handles, computed by the document's edit
 /// engine (weights only) and stored as diffreg:weight. \throw what the engine's update throws.
-UpdateReport engineWeights(Document& doc, EditParams edit);
-
-/// min, max and mean of per-vertex weights over the vertices marked `used` (the weight
-/// filters' report).
-nlohmann::json weightSummary(const Eigen::VectorXd& weights, const std::vector<bool>& used);
+WeightsRun engineWeights(Document& doc, EditParams edit);
 
 class DiffuseWeightsFilter : public Filter {
  public:

@@ -55,12 +55,13 @@ FilterResult RbfWeightsFilter::apply(Document& doc, const ParamMap& params) cons
   edit.rbf.sigma = params.getFloat("sigma");
   edit.rbf.sigmaAbsolute = params.getString("sigma_unit") == "absolute";
   edit.rbf.clamp = params.getBool("clamp");
-  const UpdateReport report = engineWeights(doc, std::move(edit));
+  WeightsRun run = engineWeights(doc, std::move(edit));
+  const UpdateReport& report = run.report;
 
   double magnitude = 0.0;
   for (const Handle& h : doc.handles.handles) magnitude = std::max(magnitude, h.magnitude);
   FilterResult result;
-  result.data = weightSummary(doc.engine().weights(), doc.mesh.referenced());
+  result.data = std::move(run.summary);
   result.data["sigma_absolute"] = report.absoluteSigma;
   result.data["max_magnitude"] = magnitude;
   return result;
