@@ -55,8 +55,8 @@ const char* toString(SolverBackend backend) {
 // below kSupernodalSwitch) go up-looking and simplicial, which avoids the per-supernode BLAS and
 // OpenMP overhead that dominates them; larger ones supernodal on BLAS. The supernodal factor is
 // LL^T; the simplicial one LDL^T, whose back-substitutions divide by no pivot on their
-// dependency chain (measured: a quarter faster than LL^T's on one right-hand side, a tenth on
-// three), with every pivot of D
+// dependency chain (measured, the two factors alternating in one process: one right-hand side
+// 3-14% faster from 21K down to 1K unknowns, three about the same), with every pivot of D
 // checked to be positive: a matrix that is not positive definite is always reported.
 namespace {
 #ifdef DIFFREG_HAVE_CHOLMOD
