@@ -207,8 +207,50 @@ void DiffusionCore::preparePartition() {
   partitionDirty_ = false;
 }
 
+namespace {
+
+// The lower triangle of diag(N) + c K (K symmetric, compressed, its rows sorted), which is all
+// the solver reads of a symmetric matrix: the values of the full sum's lower triangle, bit for
+// bit (an entry of K alone is 0 + c K_ij, as a sparse sum has it), at half the entries.
+SparseMatrix lowerShifted(const Eigen::VectorXd& N, double c, const SparseMatrix& K) {
+  const int n = static_cast<int>(K.cols());
+  const int* outer = K.outerIndexPtr();
+  const int* inner = K.innerIndexPtr();
+  const double* values = K.valuePtr();
+  SparseMatrix A(n, n);
+  std::vector<int> first(static_cast<size_t>(n));  // each column's first entry on or below j
+  Eigen::Index count = 0;
+  for (int j = 0; j < n; ++j) {
+    first[static_cast<size_t>(j)] =
+        static_cast<int>(std::lower_bound(inner + outer[j], inner + outer[j + 1], j) - inner);
+    const bool diagonal =
+        first[static_cast<size_t>(j)] < outer[j + 1] && inner[first[static_cast<size_t>(j)]] == j;
+    count += outer[j + 1] - first[static_cast<size_t>(j)] + (diagonal ? 0 : 1);
+  }
+  A.resizeNonZeros(count);
+  int* Aouter = A.outerIndexPtr();
+  int* Ainner = A.innerIndexPtr();
+  double* Avalues = A.valuePtr();
+  int at = 0;
+  Aouter[0] = 0;
+  for (int j = 0; j < n; ++j) {
+    int e = first[static_cast<size_t>(j)];
+    Ainner[at] = j;  // the diagonal: N_j + c K_jj, or N_j + 0 where K has none
+    Avalues[at++] = e < outer[j + 1] && inner[e] == j ? N(j) + c * values[e++] : N(j) + 0.0;
+    for (; e < outer[j + 1]; ++e) {
+      Ainner[at] = inner[e];
+      Avalues[at++] = 0.0 + c * values[e];
+    }
+    Aouter[j + 1] = at;
+  }
+  return A;
+}
+
+}  // namespace
+
 // The matrix factored for the current order, t and r (docs/method.md, "Diffused weights"): the
-// system itself, or for the second order by `pcg` its preconditioner's factor N + t/sqrt(2) K_FF.
+// system itself, or for the second order by `pcg` its preconditioner's factor N + t/sqrt(2) K_FF;
+// the lower triangle only, which is what the solver reads.
 void DiffusionCore::prepareMatrix(bool analyzeAgain) {
   const Eigen::VectorXd& M = disc_.lumpedMass();
   const Eigen::VectorXd r = rangeField();
@@ -218,27 +260,31 @@ void DiffusionCore::prepareMatrix(bool analyzeAgain) {
     const int v = partition_.freeIds()[i];
     N_(i) = M(v) / r(v);
   }
-  SparseMatrix Nmat(nf, nf);
-  Nmat.reserve(Eigen::VectorXi::Constant(nf, 1));
-  for (int i = 0; i < nf; ++i) Nmat.insert(i, i) = N_(i);
   const double t = absoluteTime();
   SparseMatrix A;
   switch (params_.order) {
-    case DiffusionOrder::First: A = Nmat + t * KFF_; break;
-    case DiffusionOrder::ImplicitEuler:
-      A = Nmat + (t / params_.steps) * KFF_;
+    case DiffusionOrder::First:
+      A = lowerShifted(N_, t, KFF_);
       break;
-    case DiffusionOrder::Second:
+    case DiffusionOrder::ImplicitEuler:
+      A = lowerShifted(N_, t / params_.steps, KFF_);
+      break;
+    case DiffusionOrder::Second: {
       if (params_.solve == DiffusionSolve::Pcg) {
-        A = Nmat + (t / std::sqrt(2.0)) * KFF_;
+        A = lowerShifted(N_, t / std::sqrt(2.0), KFF_);
         break;
       }
       if (productDirty_) {
         KNK_ = SparseMatrix(KFF_ * N_.cwiseInverse().asDiagonal()) * KFF_;
         productDirty_ = false;
       }
-      A = Nmat + t * KFF_ + (0.5 * t * t) * KNK_;
+      SparseMatrix Nmat(nf, nf);
+      Nmat.reserve(Eigen::VectorXi::Constant(nf, 1));
+      for (int i = 0; i < nf; ++i) Nmat.insert(i, i) = N_(i);
+      A = SparseMatrix(
+          SparseMatrix(Nmat + t * KFF_ + (0.5 * t * t) * KNK_).triangularView<Eigen::Lower>());
       break;
+    }
   }
   solver_.compute(A, analyzeAgain);
   matrixDirty_ = false;
