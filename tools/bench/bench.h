@@ -5,9 +5,12 @@
 #include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -85,6 +88,22 @@ class ScratchDirectory {
  private:
   std::filesystem::path path_;
 };
+
+/// The files of a run of the diffreg tool in a process of its own: the tool beside this
+/// benchmark, the input mesh, the handle file, the output and the report (all but the tool and
+/// a shared mesh in `dir`, removed with it).
+struct ToolRun {
+  std::unique_ptr<ScratchDirectory> dir;
+  std::string tool, mesh, handles, output, report;
+};
+/// The tool beside this benchmark, a scratch directory and the paths of the handle file, the
+/// output (PLY) and the report in it; false (and `run` empty) when the tool is not there.
+bool prepareToolRun(ToolRun& run);
+/// `TOOL -i MESH --handles H --filter FILTER -o OUT --quiet --report R` in a child process.
+/// \throw Error beginning with `what` when it does not exit with status 0.
+void runToolFilter(const ToolRun& run, const std::string& filter, const std::string& what);
+/// The report that the last runToolFilter() wrote.
+nlohmann::json toolReport(const ToolRun& run);
 
 /// Appends the cases of each group.
 void addWeightCases(std::vector<Case>& cases, const Sizes& sizes);

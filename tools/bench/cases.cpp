@@ -1,7 +1,6 @@
 // The benchmark cases on diffreg itself: diffused weights (eq. 7 / eq. 8), the regularized ARAP
 // session, the CGAL peer's problem set-up and the memory probe's session.
 #include <diffreg/core/error.h>
-#include <diffreg/core/file.h>
 #include <diffreg/core/timer.h>
 #include <diffreg/deformation/deformer.h>
 #include <diffreg/discretization/discretization.h>
@@ -128,13 +127,6 @@ constexpr PaperWeights kPaper1k{0.008, 0.032, 0.001, 0.002};  // car body, 984 V
 constexpr PaperWeights kPaper4k{1.13, 8.5, 0.011, 0.030};     // rocker arm, 3,696 V
 constexpr PaperWeights kPaper21k{9.04, 52.8, 0.06, 0.17};     // chair, 21,342 V
 
-// The files of a weights case's tool run: the diffreg tool beside this benchmark, the mesh (the
-// shared file, or the generated mesh written out), the handle file, the output and the report.
-struct ToolRun {
-  std::unique_ptr<ScratchDirectory> dir;
-  std::string tool, mesh, handles, output, report;
-};
-
 // Everything a case builds before its repeats, shared by its prepare/run/release closures.
 struct State {
   BenchMesh mesh;
@@ -186,17 +178,13 @@ Prepared prepareWeights(State& state, const std::function<BenchMesh()>& make) {
 // Sets up the tool's run of the diffuse_weights filter at its defaults (eq. 8 by PCG) with the
 // case's handles, ranges and magnitudes; leaves `run` empty when the tool is not beside this
 // benchmark.
-void prepareToolRun(const State& state, ToolRun& run) {
-  run = ToolRun();
-  const std::string tool = besideThisExecutable("diffreg");
-  if (tool.empty() || !std::filesystem::exists(tool)) return;
-  run.dir = std::make_unique<ScratchDirectory>();
-  const std::filesystem::path& dir = run.dir->path();
-  run.tool = tool;
+void prepareWeightsToolRun(const State& state, ToolRun& run) {
+  if (!prepareToolRun(run)) return;
   if (std::filesystem::exists(state.mesh.source)) {
     run.mesh = state.mesh.source;  // a shared mesh, read from its file
   } else {
-    run.mesh = (dir / (state.mesh.label + (state.mesh.mesh.isTet() ? ".mesh" : ".obj"))).string();
+    run.mesh = (run.dir->path() / (state.mesh.label + (state.mesh.mesh.isTet() ? ".mesh" : ".obj")))
+                   .string();
     writeMesh(run.mesh, state.mesh.mesh);
   }
   const WeightHandles& h = state.weightHandles;
@@ -206,21 +194,14 @@ void prepareToolRun(const State& state, ToolRun& run) {
                        {"vertices", h.sets[j]},
                        {"range", h.ranges[j]},
                        {"magnitude", h.magnitudes[j]}});
-  run.handles = (dir / "handles.json").string();
   std::ofstream(run.handles) << nlohmann::json{{"handles", handles}}.dump();
-  run.output = (dir / "out.ply").string();
-  run.report = (dir / "report.json").string();
 }
 
 // The diffuse_weights filter's own seconds from the tool's report: `diffreg -i MESH --handles H
 // --filter diffuse_weights -o OUT.ply --report R` in a process of its own.
 double toolFilterSeconds(const ToolRun& run) {
-  runProcess(run.tool,
-             {run.tool, "-i", run.mesh, "--handles", run.handles, "--filter", "diffuse_weights",
-              "-o", run.output, "--quiet", "--report", run.report},
-             "weights filter on " + run.mesh);
-  const nlohmann::json report =
-      nlohmann::json::parse(readFileLimited(run.report, "report", 1 << 20));
+  runToolFilter(run, "diffuse_weights", "weights filter on " + run.mesh);
+  const nlohmann::json report = toolReport(run);
   const nlohmann::json& filter = report.at("filters").at(0);
   if (filter.at("name") != "diffuse_weights")
     throw Error("weights: the tool's report has no diffuse_weights filter first");
@@ -326,7 +307,7 @@ void addWeightCase(std::vector<Case>& cases, const std::string& label,
     const bool tool = scheme.order == DiffusionOrder::Second && scheme.solve == DiffusionSolve::Pcg;
     c.prepare = [state, make, tool] {
       Prepared p = prepareWeights(*state, make);
-      if (p.available && tool) prepareToolRun(*state, state->toolRun);
+      if (p.available && tool) prepareWeightsToolRun(*state, state->toolRun);
       return p;
     };
     c.release = [state] { *state = State(); };  // removes the tool run's scratch directory

@@ -5,7 +5,6 @@
 // the tool's heap settings (the target's figure), and in this process. Handles: the 5% at both
 // ends of the longest axis, one end pulled by 10% of the length (as the peer cases).
 #include <diffreg/core/error.h>
-#include <diffreg/core/file.h>
 #include <diffreg/core/timer.h>
 #include <diffreg/mesh/io.h>
 #include "bench.h"
@@ -24,10 +23,9 @@ namespace {
 namespace fs = std::filesystem;
 
 struct OneShot {
-  std::string path, tool, handleFile, output, reportFile;
+  ToolRun run;  // the tool's files: a generated mesh in its directory
   std::vector<int> handles;
   Eigen::MatrixXd targets;
-  std::unique_ptr<ScratchDirectory> dir;  // the handle file, the output, a generated mesh
 };
 
 // Writes the handles as a diffreg handle file: the held end, and the pulled end with the
@@ -41,21 +39,16 @@ void writeHandleFile(const OneShot& s, size_t held, const Eigen::MatrixXd& rest)
       {"handles",
        {{{"name", "held"}, {"vertices", fixed}, {"translate", {0.0, 0.0, 0.0}}},
         {{"name", "pulled"}, {"vertices", moved}, {"translate", {shift(0), shift(1), shift(2)}}}}}};
-  std::ofstream(s.handleFile) << file.dump();
+  std::ofstream(s.run.handles) << file.dump();
 }
 
 // The tool's whole run (from its start to its exit) and, from its report, the part from reading
 // the input to writing the output.
 std::pair<double, double> runTool(const OneShot& s) {
   Timer timer;
-  runProcess(s.tool,
-             {s.tool, "-i", s.path, "--handles", s.handleFile, "--filter", "deform iterations=1",
-              "-o", s.output, "--quiet", "--report", s.reportFile},
-             "one-shot on " + s.path);
+  runToolFilter(s.run, "deform iterations=1", "one-shot on " + s.run.mesh);
   const double seconds = timer.seconds();
-  const nlohmann::json report =
-      nlohmann::json::parse(readFileLimited(s.reportFile, "report", 1 << 20));
-  return {seconds, report.at("seconds").at("total").get<double>()};
+  return {seconds, toolReport(s.run).at("seconds").at("total").get<double>()};
 }
 
 // A shared mesh (`file`), or with `generated` > 0 a UV sphere of about that many vertices,
@@ -69,37 +62,32 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
   c.prepare = [state, file, generated] {
     OneShot& s = *state;
     Prepared p;
-    s.tool = besideThisExecutable("diffreg");  // the tool beside this benchmark
-    if (s.tool.empty() || !fs::exists(s.tool)) {
+    if (!prepareToolRun(s.run)) {
       p.available = false;
       p.skipReason = "the diffreg tool is not beside diffreg-bench";
       return p;
     }
-    s.dir = std::make_unique<ScratchDirectory>();
-    const fs::path& dir = s.dir->path();
+    const fs::path& dir = s.run.dir->path();
     Mesh mesh;
     std::string source;
     if (generated > 0) {
       BenchMesh made = sphereNear(generated);
       mesh = std::move(made.mesh);
-      s.path = (dir / (made.label + ".obj")).string();
-      writeMesh(s.path, mesh);
-      source = made.source + ", written as " + s.path;
-    } else if (!sharedMesh(file, mesh, s.path)) {
+      s.run.mesh = (dir / (made.label + ".obj")).string();
+      writeMesh(s.run.mesh, mesh);
+      source = made.source + ", written as " + s.run.mesh;
+    } else if (!sharedMesh(file, mesh, s.run.mesh)) {
       p.available = false;
-      p.skipReason = s.path + " absent";
+      p.skipReason = s.run.mesh + " absent";
       return p;
     } else {
-      source = s.path;
+      source = s.run.mesh;
     }
     const Eigen::MatrixXd rest = mesh.positions();
     const auto [fixed, moved] = endHandles(rest, 0.05);
     s.handles = fixed;
     s.handles.insert(s.handles.end(), moved.begin(), moved.end());
     s.targets = moveTargets(rest, fixed, moved, 0.10, 3);
-    s.handleFile = (dir / "handles.json").string();
-    s.output = (dir / "out.ply").string();
-    s.reportFile = (dir / "report.json").string();
     writeHandleFile(s, fixed.size(), rest);
     p.source = source;
     p.vertices = mesh.numVertices();
@@ -111,8 +99,8 @@ void addOneShotCase(std::vector<Case>& cases, const std::string& label, const st
   c.run = [state] {
     const OneShot& s = *state;
     const auto [ours, readToWrite] = runTool(s);
-    const double cgal = cgalOneShotInChild(s.path, s.handles, s.targets, 1, s.dir->path());
-    const double warm = cgalOneShot(s.path, s.handles, s.targets, 1);
+    const double cgal = cgalOneShotInChild(s.run.mesh, s.handles, s.targets, 1, s.run.dir->path());
+    const double warm = cgalOneShot(s.run.mesh, s.handles, s.targets, 1);
     return Sample{{"ours", ours},
                   {"ours_read_to_write", readToWrite},
                   {"cgal", cgal},

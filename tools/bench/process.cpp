@@ -1,6 +1,7 @@
 // The benchmark's child processes (the diffreg tool, and this benchmark again in a child mode)
 // and the scratch directories that hand them files.
 #include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
 #include "bench.h"
 
 #include <fcntl.h>
@@ -94,6 +95,30 @@ ScratchDirectory::ScratchDirectory() {
 ScratchDirectory::~ScratchDirectory() {
   std::error_code ec;
   std::filesystem::remove_all(path_, ec);
+}
+
+bool prepareToolRun(ToolRun& run) {
+  run = ToolRun();
+  const std::string tool = besideThisExecutable("diffreg");
+  if (tool.empty() || !std::filesystem::exists(tool)) return false;
+  run.tool = tool;
+  run.dir = std::make_unique<ScratchDirectory>();
+  const std::filesystem::path& dir = run.dir->path();
+  run.handles = (dir / "handles.json").string();
+  run.output = (dir / "out.ply").string();
+  run.report = (dir / "report.json").string();
+  return true;
+}
+
+void runToolFilter(const ToolRun& run, const std::string& filter, const std::string& what) {
+  runProcess(run.tool,
+             {run.tool, "-i", run.mesh, "--handles", run.handles, "--filter", filter, "-o",
+              run.output, "--quiet", "--report", run.report},
+             what);
+}
+
+nlohmann::json toolReport(const ToolRun& run) {
+  return nlohmann::json::parse(readFileLimited(run.report, "report", 1 << 20));
 }
 
 }  // namespace diffreg::bench
