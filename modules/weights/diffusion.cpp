@@ -406,18 +406,16 @@ Eigen::MatrixXd DiffusionCore::solveForColumns(const Eigen::MatrixXd& G) {
 }
 
 // B x = rhs, B = N + t K + t^2/2 K N^-1 K, by conjugate gradients preconditioned with
-// P = S N^-1 S, S = N + g K, g = t / sqrt(2) (docs/method.md, "Diffused weights"). B is applied
-// through K and N without forming K N^-1 K; P^-1 y = S^-1 (N (S^-1 y)) costs two
-// back-substitutions against the factor of S. Per mode of N^-1 K with s = t lambda, P^-1 B has
-// the eigenvalue (1 + s + s^2/2) / (1 + sqrt(2) s + s^2/2) in [(2 + sqrt 2) / 4, 1].
+// P = S N^-1 S, S = N + g K, g = t / sqrt(2) (docs/method.md, "Diffused weights"). P^-1 y =
+// S^-1 (N (S^-1 y)) costs two back-substitutions against the factor of S. Per mode of N^-1 K
+// with s = t lambda, P^-1 B has the eigenvalue (1 + s + s^2/2) / (1 + sqrt(2) s + s^2/2) in
+// [(2 + sqrt 2) / 4, 1]. B is applied without forming K N^-1 K, and with one product with K:
+// P = N + sqrt(2) t K + t^2/2 K N^-1 K = B + d K with d = (sqrt(2) - 1) t, and P p follows the
+// search directions for free (P p_0 = r_0, P p_(k+1) = r_(k+1) + beta P p_k), so
+// B p = P p - d K p.
 Eigen::MatrixXd DiffusionCore::solvePcg(const Eigen::MatrixXd& rhs, double t) {
   Timer timer;
-  const double half = 0.5 * t * t;
-  const auto Ninv = N_.asDiagonal().inverse();
-  auto applyB = [&](const Eigen::MatrixXd& v) -> Eigen::MatrixXd {
-    const Eigen::MatrixXd Kv = KFF_ * v;
-    return N_.asDiagonal() * v + t * Kv + half * (KFF_ * (Ninv * Kv));
-  };
+  const double d = (std::sqrt(2.0) - 1.0) * t;
   auto applyPinv = [&](const Eigen::MatrixXd& v) -> Eigen::MatrixXd {
     const Eigen::MatrixXd y = solver_.solve(v);
     return solver_.solve(N_.asDiagonal() * y);
@@ -439,10 +437,10 @@ Eigen::MatrixXd DiffusionCore::solvePcg(const Eigen::MatrixXd& rhs, double t) {
   if (anyActive()) {
     Eigen::MatrixXd r = rhs;
     Eigen::MatrixXd z = applyPinv(r);
-    Eigen::MatrixXd p = z;
+    Eigen::MatrixXd p = z, Pp = r;
     Eigen::VectorXd rz = r.cwiseProduct(z).colwise().sum().transpose();
     while (k < kDiffusionCgMaxIterations) {
-      const Eigen::MatrixXd q = applyB(p);
+      const Eigen::MatrixXd q = Pp - d * (KFF_ * p);
       ++k;
       for (Eigen::Index c = 0; c < cols; ++c) {
         if (!active[static_cast<size_t>(c)]) continue;
@@ -456,8 +454,9 @@ Eigen::MatrixXd DiffusionCore::solvePcg(const Eigen::MatrixXd& rhs, double t) {
       z = applyPinv(r);
       for (Eigen::Index c = 0; c < cols; ++c) {
         if (!active[static_cast<size_t>(c)]) continue;
-        const double rzNext = r.col(c).dot(z.col(c));
-        p.col(c) = z.col(c) + (rzNext / rz(c)) * p.col(c);
+        const double rzNext = r.col(c).dot(z.col(c)), beta = rzNext / rz(c);
+        p.col(c) = z.col(c) + beta * p.col(c);
+        Pp.col(c) = r.col(c) + beta * Pp.col(c);
         rz(c) = rzNext;
       }
     }
