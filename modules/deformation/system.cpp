@@ -1,6 +1,7 @@
 #include <diffreg/deformation/system.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/incidence.h>
 #include <diffreg/core/parallel.h>
 #include <diffreg/core/sparse_entry.h>
 
@@ -199,17 +200,11 @@ void RegularizedSystem::setWeights(const RegularizationWeights& weights) {
 void RegularizedSystem::buildTopology() {
   const Discretization& disc = model_.discretization();
   const int m = disc.numElements(), u = model_.localSize(), N = model_.numUnknowns();
-  incidenceStart_.assign(static_cast<size_t>(N) + 1, 0);
-  for (int k = 0; k < m; ++k)
-    for (int j = 0; j < u; ++j) ++incidenceStart_[static_cast<size_t>(model_.unknown(k, j)) + 1];
-  for (int p = 0; p < N; ++p) incidenceStart_[p + 1] += incidenceStart_[p];
-  incidence_.resize(static_cast<size_t>(incidenceStart_[N]));
-  std::vector<int> fill(incidenceStart_.begin(), incidenceStart_.end() - 1);
-  for (int k = 0; k < m; ++k)
-    for (int j = 0; j < u; ++j) {
-      const int at = fill[model_.unknown(k, j)]++;
-      incidence_[at] = k * u + j;
-    }
+  Incidence incidence = incidenceOf(
+      N, m, u, [this](int k, int j) { return model_.unknown(k, j); },
+      [u](int k, int j) { return k * u + j; });
+  incidenceStart_ = std::move(incidence.start);
+  incidence_ = std::move(incidence.entries);
   // Scatter colours of groups of kScatterGroup consecutive elements, greedily: the smallest
   // colour (of 64, a bit mask per unknown) that no group sharing an unknown has yet. Used when
   // the groups are compact enough to leave kGroupsPerColour groups per colour on average.

@@ -2,6 +2,7 @@
 
 #include <diffreg/core/colormap.h>
 #include <diffreg/core/error.h>
+#include <diffreg/core/incidence.h>
 
 #include <algorithm>
 #include <cmath>
@@ -248,28 +249,23 @@ std::vector<std::array<Eigen::Vector3d, 3>> cornerNormals(const Eigen::MatrixXd&
   const int t = static_cast<int>(list.tris.size());
   const int n = static_cast<int>(p.rows());
   std::vector<Eigen::Vector3d> area(t), unit(t);
-  std::vector<int> start(n + 1, 0), incident;
   for (int k = 0; k < t; ++k) {
     const auto& f = list.tris[k];
     const Eigen::Vector3d a = p.row(f[0]), b = p.row(f[1]), c = p.row(f[2]);
     area[k] = rotation * (b - a).cross(c - a);
     const double len = area[k].norm();
     unit[k] = len > 0.0 ? Eigen::Vector3d(area[k] / len) : Eigen::Vector3d::Zero();
-    for (int v : f) ++start[v + 1];
   }
-  for (int v = 0; v < n; ++v) start[v + 1] += start[v];
-  incident.resize(start[n]);
-  std::vector<int> fill(start.begin(), start.end() - 1);
-  for (int k = 0; k < t; ++k)
-    for (int v : list.tris[k]) incident[fill[v]++] = k;
+  const Incidence around = incidenceOf(
+      n, t, 3, [&list](int k, int j) { return list.tris[k][j]; }, [](int k, int) { return k; });
 
   std::vector<std::array<Eigen::Vector3d, 3>> normals(t);
   for (int k = 0; k < t; ++k) {
     for (int j = 0; j < 3; ++j) {
       const int v = list.tris[k][j];
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (int q = start[v]; q < start[v + 1]; ++q) {
-        const int other = incident[q];
+      for (int q = around.begin(v); q < around.end(v); ++q) {
+        const int other = around.entries[q];
         if (unit[other].dot(unit[k]) >= kCreaseCos) sum += area[other];
       }
       const double len = sum.norm();
