@@ -2,7 +2,7 @@
 
 #include <diffreg/core/disjoint_sets.h>
 #include <diffreg/core/error.h>
-#include <diffreg/core/sparse_entry.h>
+#include <diffreg/core/incidence.h>
 #include <diffreg/mesh/halfedges.h>
 
 #include <Eigen/Dense>
@@ -86,31 +86,31 @@ void checkElements(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen:
                           std::to_string(n) + ")");
 }
 
+// The elements around each vertex of `elements` (n vertices), in element order: entries
+// e * k + j for vertex elements(e, j).
+Incidence elementsAround(const Eigen::MatrixXi& elements, int n) {
+  const int k = static_cast<int>(elements.cols());
+  return incidenceOf(
+      n, static_cast<int>(elements.rows()), k, [&elements](int e, int j) { return elements(e, j); },
+      [k](int e, int j) { return e * k + j; });
+}
+
 // The vertices that share an element with each vertex, itself included, as compressed rows:
-// vertex v's are adjacency[start[v] .. start[v + 1]), sorted. From the elements around each
+// vertex v's are adjacency[start[v] .. start[v + 1]), sorted. From the elements `around` each
 // vertex, each neighbour taken once (a stamp per vertex), then sorted: small sorts of about 7
 // (triangles) to 15 (tets) entries instead of one sort of every pair.
-void vertexAdjacency(const Eigen::MatrixXi& elements, int n, std::vector<int>& start,
-                     std::vector<int>& adjacency) {
-  const int m = static_cast<int>(elements.rows()), k = static_cast<int>(elements.cols());
-  std::vector<int> around(static_cast<size_t>(n) + 1, 0), incident(static_cast<size_t>(m) * k);
-  for (int j = 0; j < k; ++j)
-    for (int e = 0; e < m; ++e) ++around[static_cast<size_t>(elements(e, j)) + 1];
-  for (int v = 0; v < n; ++v) around[v + 1] += around[v];
-  {
-    std::vector<int> fill(around.begin(), around.end() - 1);
-    for (int e = 0; e < m; ++e)
-      for (int j = 0; j < k; ++j) incident[static_cast<size_t>(fill[elements(e, j)]++)] = e;
-  }
+void vertexAdjacency(const Eigen::MatrixXi& elements, const Incidence& around,
+                     std::vector<int>& start, std::vector<int>& adjacency) {
+  const int n = static_cast<int>(around.start.size()) - 1, k = static_cast<int>(elements.cols());
   std::vector<int> stamp(static_cast<size_t>(n), -1);
   start.assign(static_cast<size_t>(n) + 1, 0);
   adjacency.clear();
   adjacency.reserve(static_cast<size_t>(n) * (k == 4 ? 16 : 8));
   for (int v = 0; v < n; ++v) {
     const size_t first = adjacency.size();
-    for (int at = around[v]; at < around[v + 1]; ++at)
+    for (int at = around.begin(v); at < around.end(v); ++at)
       for (int j = 0; j < k; ++j) {
-        const int u = elements(incident[static_cast<size_t>(at)], j);
+        const int u = elements(around.entries[static_cast<size_t>(at)] / k, j);
         if (stamp[static_cast<size_t>(u)] == v) continue;
         stamp[static_cast<size_t>(u)] = v;
         adjacency.push_back(u);
@@ -156,7 +156,7 @@ double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& el
   }
   for (int v = 0; v < n; ++v)
     std::sort(records.begin() + bucket[v], records.begin() + bucket[v + 1]);
-  vertexAdjacency(elements, n, start, adjacency);
+  vertexAdjacency(elements, elementsAround(elements, n), start, adjacency);
   double edgeSum = 0.0;
   std::size_t edges = 0;
   for (int a = 0; a < n; ++a)
@@ -269,24 +269,33 @@ template <int K>
 SparseMatrix Discretization::assembleStiffness(std::vector<int>& start,
                                                std::vector<int>& adjacency) const {
   // Straight into the pattern of the vertex adjacency (every pair of vertices of an element),
-  // each entry summing its terms in element order as setFromTriplets would (from -0.0, which
-  // adds no term's sign of zero), without the m K^2 triplets (288 MB on a 2M-face surface).
-  const int n = numVertices(), m = numElements();
-  if (start.empty()) vertexAdjacency(elements_, n, start, adjacency);
+  // without the m K^2 triplets (288 MB on a 2M-face surface), column by column: column v sums
+  // the terms of the elements around v in element order from -0.0 (which adds no term's sign
+  // of zero), as setFromTriplets would, and finds each row's entry in a table filled from the
+  // column's pattern rather than by a search.
+  const int n = numVertices();
+  const Incidence around = elementsAround(elements_, n);
+  if (start.empty()) vertexAdjacency(elements_, around, start, adjacency);
   SparseMatrix stiffness(n, n);
   stiffness.resizeNonZeros(static_cast<Eigen::Index>(adjacency.size()));
   std::copy(start.begin(), start.end(), stiffness.outerIndexPtr());
   std::copy(adjacency.begin(), adjacency.end(), stiffness.innerIndexPtr());
   double* values = stiffness.valuePtr();
   std::fill_n(values, adjacency.size(), -0.0);
+  std::vector<int> entryOfRow(static_cast<size_t>(n));
   Eigen::Matrix<double, K, 3> g = Eigen::Matrix<double, K, 3>::Zero();
-  for (int e = 0; e < m; ++e) {
-    g.leftCols(dim_) = grads_.block(static_cast<Eigen::Index>(e) * K, 0, K, dim_);
-    const Eigen::Matrix<double, K, K> Ke = measures_(e) * g * g.transpose();
-    for (int i = 0; i < K; ++i)
-      for (int j = 0; j < K; ++j)
-        values[entryIndex(start.data(), adjacency.data(), elements_(e, i), elements_(e, j))] +=
-            Ke(i, j);
+  for (int v = 0; v < n; ++v) {
+    for (int at = start[static_cast<size_t>(v)]; at < start[static_cast<size_t>(v) + 1]; ++at)
+      entryOfRow[static_cast<size_t>(adjacency[static_cast<size_t>(at)])] = at;
+    for (int at = around.begin(v); at < around.end(v); ++at) {
+      const int e = around.entries[static_cast<size_t>(at)] / K;
+      const int j = around.entries[static_cast<size_t>(at)] % K;  // v = elements_(e, j)
+      g.leftCols(dim_) = grads_.block(static_cast<Eigen::Index>(e) * K, 0, K, dim_);
+      // Column j of the element's matrix measure g g^T (the same bits as the whole product).
+      const Eigen::Matrix<double, K, 1> Kej = measures_(e) * g * g.row(j).transpose();
+      for (int i = 0; i < K; ++i)
+        values[entryOfRow[static_cast<size_t>(elements_(e, i))]] += Kej(i);
+    }
   }
   std::vector<int>().swap(start);  // the pattern lives on in K
   std::vector<int>().swap(adjacency);
