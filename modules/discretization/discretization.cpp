@@ -4,6 +4,7 @@
 #include <diffreg/core/error.h>
 #include <diffreg/core/incidence.h>
 #include <diffreg/mesh/halfedges.h>
+#include <diffreg/mesh/tet_facets.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -12,24 +13,6 @@
 #include <string>
 
 namespace diffreg {
-namespace {
-
-// One (sorted vertex key, element) record per element facet, for adjacency by sorting.
-struct FacetRecord {
-  std::array<int, 3> key;
-  int element;
-  bool operator<(const FacetRecord& o) const {  // by key, then element (no memcmp call)
-    if (key[0] != o.key[0]) return key[0] < o.key[0];
-    if (key[1] != o.key[1]) return key[1] < o.key[1];
-    if (key[2] != o.key[2]) return key[2] < o.key[2];
-    return element < o.element;
-  }
-  bool sameKey(const FacetRecord& o) const {
-    return key[0] == o.key[0] && key[1] == o.key[1] && key[2] == o.key[2];
-  }
-};
-
-}  // namespace
 
 Eigen::MatrixXd Discretization::restFrame(int e) const {
   if (kind_ != MeshKind::Surface) return Eigen::MatrixXd::Identity(dim_, dim_);
@@ -120,42 +103,13 @@ void vertexAdjacency(const Eigen::MatrixXi& elements, const Incidence& around,
   }
 }
 
-// Tets: the facet records of every tet (for adjacency), sorted, and the mean length of the
-// unique edges. The records are bucketed by their smallest vertex and each bucket sorted (the
-// order of one sort of them all); the edges are the vertex adjacency's pairs a < b, summed in
-// the order of (a, b).
+// Tets: the facets of every tet (for adjacency), sorted (mesh/tet_facets.h), and the mean
+// length of the unique edges: the vertex adjacency's pairs a < b, summed in the order of (a, b).
 double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements,
-                            std::vector<FacetRecord>& records, std::vector<int>& start,
+                            std::vector<TetFacet>& records, std::vector<int>& start,
                             std::vector<int>& adjacency) {
   const int m = static_cast<int>(elements.rows()), n = static_cast<int>(P3.rows());
-  // Facet i of tet e: its other three vertices, sorted. Made twice (to count the buckets, then
-  // into them) rather than kept in an array of all records between the two passes.
-  const auto record = [&elements](int e, int i) {
-    FacetRecord r{{-1, -1, -1}, e};
-    int c = 0;
-    for (int j = 0; j < 4; ++j)
-      if (j != i) r.key[c++] = elements(e, j);
-    // Three compare-exchanges; std::sort's general loop costs more than the rest of the record.
-    if (r.key[0] > r.key[1]) std::swap(r.key[0], r.key[1]);
-    if (r.key[1] > r.key[2]) std::swap(r.key[1], r.key[2]);
-    if (r.key[0] > r.key[1]) std::swap(r.key[0], r.key[1]);
-    return r;
-  };
-  std::vector<int> bucket(static_cast<size_t>(n) + 1, 0);
-  for (int e = 0; e < m; ++e)
-    for (int i = 0; i < 4; ++i) ++bucket[static_cast<size_t>(record(e, i).key[0]) + 1];
-  for (int v = 0; v < n; ++v) bucket[v + 1] += bucket[v];
-  records.resize(static_cast<size_t>(m) * 4);
-  {
-    std::vector<int> fill(bucket.begin(), bucket.end() - 1);
-    for (int e = 0; e < m; ++e)
-      for (int i = 0; i < 4; ++i) {
-        const FacetRecord r = record(e, i);
-        records[static_cast<size_t>(fill[r.key[0]]++)] = r;
-      }
-  }
-  for (int v = 0; v < n; ++v)
-    std::sort(records.begin() + bucket[v], records.begin() + bucket[v + 1]);
+  records = sortedTetFacets(m, n, [&elements](int e, int j) { return elements(e, j); });
   vertexAdjacency(elements, elementsAround(elements, n), start, adjacency);
   double edgeSum = 0.0;
   std::size_t edges = 0;
@@ -196,7 +150,7 @@ double edgeFacets(const Eigen::MatrixXd& P3, const TriMesh& tri, std::vector<Fac
 
 // Tets: interior facets from the sorted records: records with equal keys belong to
 // neighbouring tets; every pair of tets on a facet (exactly one pair on a manifold mesh).
-void interiorTetFacets(const Eigen::MatrixXd& P3, const std::vector<FacetRecord>& records,
+void interiorTetFacets(const Eigen::MatrixXd& P3, const std::vector<TetFacet>& records,
                        std::vector<Facet>& facets) {
   facets.clear();
   facets.reserve(records.size() / 2);  // two records per interior facet
@@ -210,8 +164,8 @@ void interiorTetFacets(const Eigen::MatrixXd& P3, const std::vector<FacetRecord>
     for (size_t a = i; a < j; ++a)
       for (size_t b = a + 1; b < j; ++b) {
         Facet f;
-        f.k = records[a].element;
-        f.l = records[b].element;
+        f.k = records[a].tet;
+        f.l = records[b].tet;
         f.c = c;
         f.size = 3;
         f.vertices = key;
@@ -356,7 +310,7 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   checkSize(extent);
   diagonal_ = extent.norm();
 
-  std::vector<FacetRecord> records;  // tets: adjacency by sorting their facets
+  std::vector<TetFacet> records;  // tets: adjacency by sorting their facets
   if (k == 4)
     meanEdge_ =
         tetFacetsAndMeanEdge(P3, elements, records, stiffness_->start, stiffness_->adjacency);

@@ -1,36 +1,36 @@
 #include <diffreg/mesh/boundary.h>
 
+#include <diffreg/core/error.h>
+#include <diffreg/mesh/tet_facets.h>
+
 #include <algorithm>
+#include <string>
 
 namespace diffreg {
 
 BoundaryFaces tetBoundary(const TetMesh& tet) {
   // Outward faces of a positively oriented tet (a, b, c, d), the one opposite vertex i first.
   static const int local[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  struct Face {
-    std::array<int, 3> key;
-    int tet, local;
-  };
-  std::vector<Face> faces;
-  faces.reserve(tet.tets.size() * 4);
-  for (int k = 0; k < static_cast<int>(tet.tets.size()); ++k) {
-    for (int j = 0; j < 4; ++j) {
-      std::array<int, 3> key{tet.tets[k][local[j][0]], tet.tets[k][local[j][1]],
-                             tet.tets[k][local[j][2]]};
-      std::sort(key.begin(), key.end());
-      faces.push_back({key, k, j});
+  const int tets = static_cast<int>(tet.tets.size());
+  int vertices = static_cast<int>(tet.points.size());
+  for (int k = 0; k < tets; ++k)
+    for (int v : tet.tets[static_cast<size_t>(k)]) {
+      if (v < 0)
+        throw InvalidMesh("tet boundary: tet " + std::to_string(k) + " has vertex id " +
+                          std::to_string(v));
+      vertices = std::max(vertices, v + 1);
     }
-  }
-  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key; });
+  const std::vector<TetFacet> facets = sortedTetFacets(
+      tets, vertices, [&tet](int k, int j) { return tet.tets[static_cast<size_t>(k)][j]; });
   BoundaryFaces result;
-  for (std::size_t i = 0; i < faces.size();) {
+  for (std::size_t i = 0; i < facets.size();) {
     std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j == i + 1) {
-      const auto& t = tet.tets[faces[i].tet];
-      const int* l = local[faces[i].local];
+    while (j < facets.size() && facets[j].sameKey(facets[i])) ++j;
+    if (j == i + 1) {  // a facet of one tet only
+      const auto& t = tet.tets[static_cast<size_t>(facets[i].tet)];
+      const int* l = local[facets[i].opposite];
       result.faces.push_back({t[l[0]], t[l[1]], t[l[2]]});
-      result.element.push_back(faces[i].tet);
+      result.element.push_back(facets[i].tet);
     }
     i = j;
   }
