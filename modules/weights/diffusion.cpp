@@ -409,13 +409,21 @@ Eigen::MatrixXd DiffusionCore::solveForColumns(const Eigen::MatrixXd& G) {
 // P = S N^-1 S, S = N + g K, g = t / sqrt(2) (docs/method.md, "Diffused weights"). P^-1 y =
 // S^-1 (N (S^-1 y)) costs two back-substitutions against the factor of S. Per mode of N^-1 K
 // with s = t lambda, P^-1 B has the eigenvalue (1 + s + s^2/2) / (1 + sqrt(2) s + s^2/2) in
-// [(2 + sqrt 2) / 4, 1]. B is applied without forming K N^-1 K, and with one product with K:
-// P = N + sqrt(2) t K + t^2/2 K N^-1 K = B + d K with d = (sqrt(2) - 1) t, and P p follows the
-// search directions for free (P p_0 = r_0, P p_(k+1) = r_(k+1) + beta P p_k), so
-// B p = P p - d K p.
+// [(2 + sqrt 2) / 4, 1]. B is never formed, and an iteration multiplies by K once: P = N +
+// 2 g K + g^2 K N^-1 K = B + (2 g - t) K, and P p follows the search directions (P p_0 = r_0,
+// P p_(k+1) = r_(k+1) + beta P p_k), so B p = P p - (2 g - t) K p. That recurrence holds only
+// as far as the back-substitutions apply P^-1 exactly, so the true residual rhs - B x decides
+// when the recursive one has converged; a column it finds short goes on from there.
 Eigen::MatrixXd DiffusionCore::solvePcg(const Eigen::MatrixXd& rhs, double t) {
   Timer timer;
-  const double d = (std::sqrt(2.0) - 1.0) * t;
+  const double g = t / std::sqrt(2.0);  // the factored S = N + g K (prepareMatrix)
+  const double d = 2.0 * g - t;
+  const double half = 0.5 * t * t;
+  const auto Ninv = N_.asDiagonal().inverse();
+  auto applyB = [&](const Eigen::MatrixXd& v) -> Eigen::MatrixXd {
+    const Eigen::MatrixXd Kv = KFF_ * v;
+    return N_.asDiagonal() * v + t * Kv + half * (KFF_ * (Ninv * Kv));
+  };
   auto applyPinv = [&](const Eigen::MatrixXd& v) -> Eigen::MatrixXd {
     const Eigen::MatrixXd y = solver_.solve(v);
     return solver_.solve(N_.asDiagonal() * y);
@@ -434,8 +442,9 @@ Eigen::MatrixXd DiffusionCore::solvePcg(const Eigen::MatrixXd& rhs, double t) {
   const auto anyActive = [&] { return std::find(active.begin(), active.end(), true) != active.end(); };
   DiffusionSolveInfo& info = lastSolve_;
   int k = 0;
-  if (anyActive()) {
-    Eigen::MatrixXd r = rhs;
+  Eigen::MatrixXd r = rhs;  // rhs - B x, exact at each round's start
+  for (int round = 0; round < kDiffusionCgRounds && anyActive() && k < kDiffusionCgMaxIterations;
+       ++round) {
     Eigen::MatrixXd z = applyPinv(r);
     Eigen::MatrixXd p = z, Pp = r;
     Eigen::VectorXd rz = r.cwiseProduct(z).colwise().sum().transpose();
@@ -459,6 +468,12 @@ Eigen::MatrixXd DiffusionCore::solvePcg(const Eigen::MatrixXd& rhs, double t) {
         Pp.col(c) = r.col(c) + beta * Pp.col(c);
         rz(c) = rzNext;
       }
+    }
+    r = rhs - applyB(x);
+    for (Eigen::Index c = 0; c < cols; ++c) {
+      if (!(rhsNorm(c) > 0.0)) continue;
+      relative(c) = r.col(c).norm() / rhsNorm(c);
+      active[static_cast<size_t>(c)] = relative(c) > kDiffusionCgTolerance;
     }
   }
   info.cgIterations = k;

@@ -99,6 +99,10 @@ struct DiffusionSolveInfo {
 /// 1.18), so 1e-12 takes 4-9 iterations on planar, surface and tet meshes for any t.
 constexpr double kDiffusionCgTolerance = 1e-12;
 constexpr int kDiffusionCgMaxIterations = 100;
+/// The most rounds of that CG: a round ends when the recursive residual meets the tolerance,
+/// and where the true residual rhs - B x does not, the next starts from the last iterate
+/// (DiffusionCore::solvePcg).
+constexpr int kDiffusionCgRounds = 3;
 
 /// An editing session for the weights that reuses factorizations as the paper's Fig. 5 says:
 /// setHandles -> symbolic analysis + numeric factorization at the next solve; a new t,
