@@ -69,12 +69,16 @@ TEST_CASE("tetBoundary: the facets of one tet, outward, in key order", "[mesh]")
   }
 }
 
-TEST_CASE("tetBoundary: a single tet is its own boundary; a negative vertex id is an error",
-          "[mesh]") {
+TEST_CASE(
+    "tetBoundary: a single tet is its own boundary; a vertex id outside the points is an "
+    "error",
+    "[mesh]") {
   TetMesh one;
   one.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
   one.tets = {{0, 1, 2, 3}};
   CHECK(tetBoundary(one).faces.size() == 4u);
   one.tets = {{0, 1, -2, 3}};
+  CHECK_THROWS_AS(tetBoundary(one), InvalidMesh);
+  one.tets = {{0, 1, 2, 4}};
   CHECK_THROWS_AS(tetBoundary(one), InvalidMesh);
 }

@@ -12,14 +12,12 @@ BoundaryFaces tetBoundary(const TetMesh& tet) {
   // Outward faces of a positively oriented tet (a, b, c, d), the one opposite vertex i first.
   static const int local[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
   const int tets = static_cast<int>(tet.tets.size());
-  int vertices = static_cast<int>(tet.points.size());
+  const int vertices = static_cast<int>(tet.points.size());
   for (int k = 0; k < tets; ++k)
-    for (int v : tet.tets[static_cast<size_t>(k)]) {
-      if (v < 0)
+    for (int v : tet.tets[static_cast<size_t>(k)])
+      if (v < 0 || v >= vertices)
         throw InvalidMesh("tet boundary: tet " + std::to_string(k) + " has vertex id " +
-                          std::to_string(v));
-      vertices = std::max(vertices, v + 1);
-    }
+                          std::to_string(v) + " outside [0, " + std::to_string(vertices) + ")");
   const std::vector<TetFacet> facets = sortedTetFacets(
       tets, vertices, [&tet](int k, int j) { return tet.tets[static_cast<size_t>(k)][j]; });
   BoundaryFaces result;

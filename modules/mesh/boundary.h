@@ -19,6 +19,7 @@ struct BoundaryFaces {
 };
 
 /// The faces in the order of their sorted vertex ids. Tets are expected positively oriented.
+/// \throw InvalidMesh for a vertex id outside the points (a reader's mesh has none).
 BoundaryFaces tetBoundary(const TetMesh& tet);
 
 /// The boundary as a triangle mesh of its own: only the vertices the faces use, kept in
