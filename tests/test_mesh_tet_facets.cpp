@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <map>
-#include <set>
 
 using namespace diffreg;
 
@@ -17,32 +16,49 @@ TEST_CASE("sortedTetFacets: every facet once, in the order of one sort of them a
   const Mesh box = makeTetBox(1, 1, 1, 3, 2, 2);
   const TetMesh& tet = box.tet();
   const int tets = static_cast<int>(tet.tets.size());
-  const std::vector<TetFacet> facets =
+  // Brute force: every facet as (its sorted vertices, tet, opposite vertex, odd), and the
+  // parity of sorting its outward order counted by inversions.
+  struct Record {
+    std::array<int, 3> key;
+    int tet, opposite;
+    bool odd;
+  };
+  std::vector<Record> expected;
+  for (int k = 0; k < tets; ++k)
+    for (int i = 0; i < 4; ++i) {
+      std::array<int, 3> v{};
+      for (int c = 0; c < 3; ++c)
+        v[static_cast<size_t>(c)] = tet.tets[static_cast<size_t>(k)][kOutwardFacet[i][c]];
+      const int inversions = int(v[0] > v[1]) + int(v[0] > v[2]) + int(v[1] > v[2]);
+      std::array<int, 3> key = v;
+      std::sort(key.begin(), key.end());
+      expected.push_back({key, k, i, inversions % 2 == 1});
+    }
+  std::stable_sort(expected.begin(), expected.end(), [](const Record& a, const Record& b) {
+    return a.key != b.key ? a.key < b.key : a.tet < b.tet;
+  });
+  std::vector<Record> listed;
+  std::map<std::array<int, 3>, int> shared;
+  forEachFacet(
       sortedTetFacets(tets, static_cast<int>(tet.points.size()),
-                      [&tet](int k, int j) { return tet.tets[static_cast<size_t>(k)][j]; });
-  REQUIRE(facets.size() == static_cast<size_t>(tets) * 4);
-  std::vector<TetFacet> sorted = facets;
-  std::sort(sorted.begin(), sorted.end());
-  for (size_t i = 0; i < facets.size(); ++i) {
-    CHECK(facets[i].key == sorted[i].key);
-    CHECK(facets[i].tet == sorted[i].tet);
-    CHECK(facets[i].opposite == sorted[i].opposite);
+                      [&tet](int k, int j) { return tet.tets[static_cast<size_t>(k)][j]; }),
+      [&](const std::array<int, 3>& key, const TetFacet* first, int count) {
+        shared[key] = count;
+        for (int c = 0; c < count; ++c)
+          listed.push_back({key, first[c].tet, first[c].opposite, first[c].odd});
+      });
+  REQUIRE(listed.size() == expected.size());
+  for (size_t i = 0; i < listed.size(); ++i) {
+    CHECK(listed[i].key == expected[i].key);
+    CHECK(listed[i].tet == expected[i].tet);
+    CHECK(listed[i].opposite == expected[i].opposite);
+    CHECK(listed[i].odd == expected[i].odd);
   }
-  // Each facet is its tet's three other vertices, sorted.
-  std::set<std::pair<int, int>> seen;
-  for (const TetFacet& f : facets) {
-    std::array<int, 3> key{};
-    int c = 0;
-    for (int j = 0; j < 4; ++j)
-      if (j != f.opposite) key[static_cast<size_t>(c++)] = tet.tets[static_cast<size_t>(f.tet)][j];
-    std::sort(key.begin(), key.end());
-    CHECK(key == f.key);
-    CHECK(seen.insert({f.tet, f.opposite}).second);
-  }
-  // A conforming mesh: every key is shared by one or two tets.
-  std::map<std::array<int, 3>, int> count;
-  for (const TetFacet& f : facets) ++count[f.key];
-  for (const auto& [key, n] : count) CHECK((n == 1 || n == 2));
+  // A conforming mesh: every facet is on one or two tets, and two tets on a facet lie on its
+  // two sides.
+  for (const auto& [key, n] : shared) CHECK((n == 1 || n == 2));
+  for (size_t i = 0; i + 1 < listed.size(); ++i)
+    if (listed[i].key == listed[i + 1].key) CHECK(listed[i].odd != listed[i + 1].odd);
 }
 
 TEST_CASE("tetBoundary: the facets of one tet, outward, in key order", "[mesh]") {

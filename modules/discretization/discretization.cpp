@@ -106,7 +106,7 @@ void vertexAdjacency(const Eigen::MatrixXi& elements, const Incidence& around,
 // Tets: the facets of every tet (for adjacency), sorted (mesh/tet_facets.h), and the mean
 // length of the unique edges: the vertex adjacency's pairs a < b, summed in the order of (a, b).
 double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements,
-                            std::vector<TetFacet>& records, std::vector<int>& start,
+                            TetFacets& records, std::vector<int>& start,
                             std::vector<int>& adjacency) {
   const int m = static_cast<int>(elements.rows()), n = static_cast<int>(P3.rows());
   records = sortedTetFacets(m, n, [&elements](int e, int j) { return elements(e, j); });
@@ -150,29 +150,26 @@ double edgeFacets(const Eigen::MatrixXd& P3, const TriMesh& tri, std::vector<Fac
 
 // Tets: interior facets from the sorted records: records with equal keys belong to
 // neighbouring tets; every pair of tets on a facet (exactly one pair on a manifold mesh).
-void interiorTetFacets(const Eigen::MatrixXd& P3, const std::vector<TetFacet>& records,
+void interiorTetFacets(const Eigen::MatrixXd& P3, const TetFacets& records,
                        std::vector<Facet>& facets) {
   facets.clear();
-  facets.reserve(records.size() / 2);  // two records per interior facet
-  for (size_t i = 0; i < records.size();) {
-    size_t j = i + 1;
-    while (j < records.size() && records[j].sameKey(records[i])) ++j;
-    const auto& key = records[i].key;
+  facets.reserve(records.facets.size() / 2);  // two records per interior facet
+  forEachFacet(records, [&](const std::array<int, 3>& key, const TetFacet* first, int count) {
+    if (count < 2) return;
     const Eigen::Vector3d a = (P3.row(key[1]) - P3.row(key[0])).transpose();
     const Eigen::Vector3d b = (P3.row(key[2]) - P3.row(key[0])).transpose();
     const double c = 0.5 * a.cross(b).norm();
-    for (size_t a = i; a < j; ++a)
-      for (size_t b = a + 1; b < j; ++b) {
+    for (int i = 0; i < count; ++i)
+      for (int j = i + 1; j < count; ++j) {
         Facet f;
-        f.k = records[a].tet;
-        f.l = records[b].tet;
+        f.k = first[i].tet;
+        f.l = first[j].tet;
         f.c = c;
         f.size = 3;
         f.vertices = key;
         facets.push_back(f);
       }
-    i = j;
-  }
+  });
 }
 
 }  // namespace
@@ -310,7 +307,7 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   checkSize(extent);
   diagonal_ = extent.norm();
 
-  std::vector<TetFacet> records;  // tets: adjacency by sorting their facets
+  TetFacets records;  // tets: adjacency by sorting their facets
   if (k == 4)
     meanEdge_ =
         tetFacetsAndMeanEdge(P3, elements, records, stiffness_->start, stiffness_->adjacency);

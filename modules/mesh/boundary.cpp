@@ -9,8 +9,6 @@
 namespace diffreg {
 
 BoundaryFaces tetBoundary(const TetMesh& tet) {
-  // Outward faces of a positively oriented tet (a, b, c, d), the one opposite vertex i first.
-  static const int local[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
   const int tets = static_cast<int>(tet.tets.size());
   const int vertices = static_cast<int>(tet.points.size());
   for (int k = 0; k < tets; ++k)
@@ -18,20 +16,17 @@ BoundaryFaces tetBoundary(const TetMesh& tet) {
       if (v < 0 || v >= vertices)
         throw InvalidMesh("tet boundary: tet " + std::to_string(k) + " has vertex id " +
                           std::to_string(v) + " outside [0, " + std::to_string(vertices) + ")");
-  const std::vector<TetFacet> facets = sortedTetFacets(
-      tets, vertices, [&tet](int k, int j) { return tet.tets[static_cast<size_t>(k)][j]; });
   BoundaryFaces result;
-  for (std::size_t i = 0; i < facets.size();) {
-    std::size_t j = i + 1;
-    while (j < facets.size() && facets[j].sameKey(facets[i])) ++j;
-    if (j == i + 1) {  // a facet of one tet only
-      const auto& t = tet.tets[static_cast<size_t>(facets[i].tet)];
-      const int* l = local[facets[i].opposite];
-      result.faces.push_back({t[l[0]], t[l[1]], t[l[2]]});
-      result.element.push_back(facets[i].tet);
-    }
-    i = j;
-  }
+  forEachFacet(
+      sortedTetFacets(tets, vertices,
+                      [&tet](int k, int j) { return tet.tets[static_cast<size_t>(k)][j]; }),
+      [&](const std::array<int, 3>&, const TetFacet* first, int count) {
+        if (count != 1) return;  // a facet of one tet only
+        const auto& t = tet.tets[static_cast<size_t>(first->tet)];
+        const int* l = kOutwardFacet[first->opposite];
+        result.faces.push_back({t[l[0]], t[l[1]], t[l[2]]});
+        result.element.push_back(first->tet);
+      });
   return result;
 }
 

@@ -8,6 +8,7 @@
 #include <diffreg/mesh/boundary.h>
 #include <diffreg/mesh/om.h>
 #include <diffreg/mesh/parse.h>
+#include <diffreg/mesh/tet_facets.h>
 
 #include <Eigen/Geometry>
 #include <OpenMesh/Core/IO/IOManager.hh>
@@ -20,7 +21,6 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -75,67 +75,30 @@ void orientTets(TetMesh& tet, const std::string& path) {
 /// Throws unless each triangle of the tets is a face of at most two tets, on its two sides: a
 /// third tet on a triangle, or a second one on the same side (a repeated tet, or two that
 /// overlap), makes no solid, and its boundary surface would be wrong. Expects positively
-/// oriented tets with vertex ids in range. The faces are grouped by their smallest vertex id
-/// (a counting sort) and sorted within each group: O(m log m) for m tets.
+/// oriented tets with vertex ids in range. The faces are grouped by their vertices
+/// (mesh/tet_facets.h: O(m log m) for m tets).
 void checkTetFaces(const TetMesh& tet, const std::string& path) {
-  // Outward faces of a positively oriented tet (a, b, c, d), as in tetBoundary.
-  static const int local[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  struct Face {
-    std::uint64_t rest;  // the two larger vertex ids, the middle one in the high half
-    int tet;
-    bool odd;  // sorting the outward order took an odd permutation: the tet's side
+  const auto triangle = [](const std::array<int, 3>& key) {
+    return "vertices " + std::to_string(key[0]) + ", " + std::to_string(key[1]) + ", " +
+           std::to_string(key[2]);
   };
-  const auto sorted = [&](int k, const int* l, bool& odd) {
-    std::array<int, 3> v{tet.tets[k][l[0]], tet.tets[k][l[1]], tet.tets[k][l[2]]};
-    odd = false;
-    if (v[0] > v[1]) std::swap(v[0], v[1]), odd = !odd;
-    if (v[1] > v[2]) std::swap(v[1], v[2]), odd = !odd;
-    if (v[0] > v[1]) std::swap(v[0], v[1]), odd = !odd;
-    return v;
-  };
-  const int m = static_cast<int>(tet.tets.size());
-  std::vector<std::size_t> first(tet.points.size() + 1, 0);  // group offsets by smallest id
-  bool odd = false;
-  for (int k = 0; k < m; ++k)
-    for (const auto& l : local) ++first[static_cast<std::size_t>(sorted(k, l, odd)[0]) + 1];
-  for (std::size_t v = 1; v < first.size(); ++v) first[v] += first[v - 1];
-  std::vector<Face> faces(first.back());
-  std::vector<std::size_t> next(first.begin(), first.end() - 1);
-  for (int k = 0; k < m; ++k) {
-    for (const auto& l : local) {
-      const std::array<int, 3> v = sorted(k, l, odd);
-      faces[next[static_cast<std::size_t>(v[0])]++] = {
-          (std::uint64_t(static_cast<unsigned>(v[1])) << 32) | static_cast<unsigned>(v[2]), k, odd};
-    }
-  }
-  const auto triangle = [](std::size_t v0, std::uint64_t rest) {
-    return "vertices " + std::to_string(v0) + ", " + std::to_string(rest >> 32) + ", " +
-           std::to_string(rest & 0xffffffffu);
-  };
-  for (std::size_t v0 = 0; v0 + 1 < first.size(); ++v0) {
-    const auto begin = faces.begin() + static_cast<std::ptrdiff_t>(first[v0]);
-    const auto end = faces.begin() + static_cast<std::ptrdiff_t>(first[v0 + 1]);
-    std::sort(begin, end, [](const Face& a, const Face& b) {
-      return a.rest != b.rest ? a.rest < b.rest : a.tet < b.tet;
-    });
-    for (auto i = begin; i != end;) {
-      auto j = i + 1;
-      while (j != end && j->rest == i->rest) ++j;
-      if (j - i > 2) {
-        throw InvalidMesh(path + ": tets " + std::to_string(i[0].tet) + ", " +
-                          std::to_string(i[1].tet) + " and " + std::to_string(i[2].tet) +
-                          " (0-based) share the triangle of " + triangle(v0, i->rest) +
-                          "; a triangle is a face of at most two tets");
-      }
-      if (j - i == 2 && i[0].odd == i[1].odd) {
-        throw InvalidMesh(path + ": tets " + std::to_string(i[0].tet) + " and " +
-                          std::to_string(i[1].tet) + " (0-based) lie on the same side of their " +
-                          "common triangle of " + triangle(v0, i->rest) +
-                          " (a repeated tet, or two that overlap)");
-      }
-      i = j;
-    }
-  }
+  forEachFacet(
+      sortedTetFacets(static_cast<int>(tet.tets.size()), static_cast<int>(tet.points.size()),
+                      [&tet](int k, int j) { return tet.tets[static_cast<std::size_t>(k)][j]; }),
+      [&](const std::array<int, 3>& key, const TetFacet* first, int count) {
+        if (count > 2) {
+          throw InvalidMesh(path + ": tets " + std::to_string(first[0].tet) + ", " +
+                            std::to_string(first[1].tet) + " and " + std::to_string(first[2].tet) +
+                            " (0-based) share the triangle of " + triangle(key) +
+                            "; a triangle is a face of at most two tets");
+        }
+        if (count == 2 && first[0].odd == first[1].odd) {
+          throw InvalidMesh(path + ": tets " + std::to_string(first[0].tet) + " and " +
+                            std::to_string(first[1].tet) +
+                            " (0-based) lie on the same side of their common triangle of " +
+                            triangle(key) + " (a repeated tet, or two that overlap)");
+        }
+      });
 }
 
 TetMesh readTetgen(const std::string& path) {
