@@ -80,37 +80,54 @@ Incidence elementsAround(const Eigen::MatrixXi& elements, int n) {
 
 // The vertices that share an element with each vertex, itself included, as compressed rows:
 // vertex v's are adjacency[start[v] .. start[v + 1]), sorted. From the elements `around` each
-// vertex, each neighbour taken once (a stamp per vertex), then sorted: small sorts of about 7
-// (triangles) to 15 (tets) entries instead of one sort of every pair.
-void vertexAdjacency(const Eigen::MatrixXi& elements, const Incidence& around,
-                     std::vector<int>& start, std::vector<int>& adjacency) {
-  const int n = static_cast<int>(around.start.size()) - 1, k = static_cast<int>(elements.cols());
-  std::vector<int> stamp(static_cast<size_t>(n), -1);
+// vertex, each neighbour taken once (a stamp per vertex) in the order met; then the lists are
+// transposed: the relation is symmetric, so transposing gives every vertex the same neighbours,
+// now in increasing order (v is appended to the lists of its neighbours, v = 0, 1, ...), and
+// the same counts. Two linear passes instead of a small sort per vertex.
+template <int K>
+void vertexAdjacencyOf(const Eigen::MatrixXi& elements, const Incidence& around,
+                       std::vector<int>& start, std::vector<int>& adjacency) {
+  const int n = static_cast<int>(around.start.size()) - 1;
+  std::vector<int> stamp(static_cast<size_t>(n), -1), met;
   start.assign(static_cast<size_t>(n) + 1, 0);
-  adjacency.clear();
-  adjacency.reserve(static_cast<size_t>(n) * (k == 4 ? 16 : 8));
+  met.reserve(static_cast<size_t>(n) * (K == 4 ? 16 : 8));
   for (int v = 0; v < n; ++v) {
-    const size_t first = adjacency.size();
-    for (int at = around.begin(v); at < around.end(v); ++at)
-      for (int j = 0; j < k; ++j) {
-        const int u = elements(around.entries[static_cast<size_t>(at)] / k, j);
+    for (int at = around.begin(v); at < around.end(v); ++at) {
+      const int e = around.entries[static_cast<size_t>(at)] / K;
+      for (int j = 0; j < K; ++j) {
+        const int u = elements(e, j);
         if (stamp[static_cast<size_t>(u)] == v) continue;
         stamp[static_cast<size_t>(u)] = v;
-        adjacency.push_back(u);
+        met.push_back(u);
       }
-    std::sort(adjacency.begin() + static_cast<std::ptrdiff_t>(first), adjacency.end());
-    start[static_cast<size_t>(v) + 1] = static_cast<int>(adjacency.size());
+    }
+    start[static_cast<size_t>(v) + 1] = static_cast<int>(met.size());
   }
+  adjacency.resize(met.size());
+  std::vector<int>& next = stamp;  // where each list's next entry goes
+  std::copy(start.begin(), start.end() - 1, next.begin());
+  for (int v = 0; v < n; ++v)
+    for (int at = start[static_cast<size_t>(v)]; at < start[static_cast<size_t>(v) + 1]; ++at)
+      adjacency[static_cast<size_t>(next[static_cast<size_t>(met[static_cast<size_t>(at)])]++)] = v;
+}
+
+void vertexAdjacency(const Eigen::MatrixXi& elements, const Incidence& around,
+                     std::vector<int>& start, std::vector<int>& adjacency) {
+  if (elements.cols() == 4)
+    vertexAdjacencyOf<4>(elements, around, start, adjacency);
+  else
+    vertexAdjacencyOf<3>(elements, around, start, adjacency);
 }
 
 // Tets: the facets of every tet (for adjacency), sorted (mesh/tet_facets.h), and the mean
 // length of the unique edges: the vertex adjacency's pairs a < b, summed in the order of (a, b).
 double tetFacetsAndMeanEdge(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements,
-                            TetFacets& records, std::vector<int>& start,
+                            TetFacets& records, Incidence& around, std::vector<int>& start,
                             std::vector<int>& adjacency) {
   const int m = static_cast<int>(elements.rows()), n = static_cast<int>(P3.rows());
   records = sortedTetFacets(m, n, [&elements](int e, int j) { return elements(e, j); });
-  vertexAdjacency(elements, elementsAround(elements, n), start, adjacency);
+  around = elementsAround(elements, n);
+  vertexAdjacency(elements, around, start, adjacency);
   double edgeSum = 0.0;
   std::size_t edges = 0;
   for (int a = 0; a < n; ++a)
@@ -217,15 +234,16 @@ void Discretization::buildElements(const Eigen::MatrixXd& P3, double tinyMeasure
 // element's third column (not stored) is zero on an exactly flat mesh; on one flat only to within
 // the planar test's 1e-12 of the diagonal, K leaves out those columns' negligible terms.
 template <int K>
-SparseMatrix Discretization::assembleStiffness(std::vector<int>& start,
-                                               std::vector<int>& adjacency) const {
+SparseMatrix Discretization::assembleStiffness(Stiffness& s) const {
   // Straight into the pattern of the vertex adjacency (every pair of vertices of an element),
   // without the m K^2 triplets (288 MB on a 2M-face surface), column by column: column v sums
   // the terms of the elements around v in element order from -0.0 (which adds no term's sign
   // of zero), as setFromTriplets would, and finds each row's entry in a table filled from the
   // column's pattern rather than by a search.
   const int n = numVertices();
-  const Incidence around = elementsAround(elements_, n);
+  if (s.around.start.empty()) s.around = elementsAround(elements_, n);
+  const Incidence& around = s.around;
+  std::vector<int>&start = s.start, &adjacency = s.adjacency;
   if (start.empty()) vertexAdjacency(elements_, around, start, adjacency);
   SparseMatrix stiffness(n, n);
   stiffness.resizeNonZeros(static_cast<Eigen::Index>(adjacency.size()));
@@ -250,6 +268,7 @@ SparseMatrix Discretization::assembleStiffness(std::vector<int>& start,
   }
   std::vector<int>().swap(start);  // the pattern lives on in K
   std::vector<int>().swap(adjacency);
+  s.around = Incidence();
   return stiffness;
 }
 
@@ -260,8 +279,7 @@ const SparseMatrix& Discretization::stiffness() const {
   }
   Stiffness& s = *stiffness_;
   std::call_once(s.once, [&] {
-    s.K = elementSize() == 4 ? assembleStiffness<4>(s.start, s.adjacency)
-                             : assembleStiffness<3>(s.start, s.adjacency);
+    s.K = elementSize() == 4 ? assembleStiffness<4>(s) : assembleStiffness<3>(s);
   });
   return s.K;
 }
@@ -270,21 +288,24 @@ const SparseMatrix& Discretization::stiffness() const {
 void Discretization::buildComponents(int n) {
   const int m = static_cast<int>(elements_.rows());
   const int k = static_cast<int>(elements_.cols());
-  active_.assign(n, false);
+  // component_ marks the referenced vertices (0) first: an int per vertex is cheaper to set
+  // once per element slot than a bit of active_, which is set once per vertex below.
+  component_.assign(n, -1);
   DisjointSets sets(n);
   // Column by column (the elements are stored so): the same sets in any order of unions, and
   // the components below are numbered by their first vertex, not by the sets' roots.
-  for (int e = 0; e < m; ++e) active_[elements_(e, 0)] = true;
+  for (int e = 0; e < m; ++e) component_[elements_(e, 0)] = 0;
   for (int i = 1; i < k; ++i)
     for (int e = 0; e < m; ++e) {
-      active_[elements_(e, i)] = true;
+      component_[elements_(e, i)] = 0;
       sets.unite(elements_(e, 0), elements_(e, i));
     }
-  component_.assign(n, -1);
+  active_.assign(n, false);
   std::vector<int> rootId(n, -1);
   numComponents_ = 0;
   for (int v = 0; v < n; ++v) {
-    if (!active_[v]) continue;
+    if (component_[v] < 0) continue;
+    active_[v] = true;
     const int r = sets.find(v);
     if (rootId[r] < 0) rootId[r] = numComponents_++;
     component_[v] = rootId[r];
@@ -309,8 +330,8 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
 
   TetFacets records;  // tets: adjacency by sorting their facets
   if (k == 4)
-    meanEdge_ =
-        tetFacetsAndMeanEdge(P3, elements, records, stiffness_->start, stiffness_->adjacency);
+    meanEdge_ = tetFacetsAndMeanEdge(P3, elements, records, stiffness_->around, stiffness_->start,
+                                     stiffness_->adjacency);
   else
     meanEdge_ = edgeFacets(P3, *topology, facets_);
   const double tinyMeasure = 1e-14 * std::pow(meanEdge_, kind == MeshKind::Tet ? 3 : 2);

@@ -4,6 +4,7 @@
 // only numerical code that knows mesh types.
 #pragma once
 
+#include <diffreg/core/incidence.h>
 #include <diffreg/mesh/mesh.h>
 
 #include <Eigen/Core>
@@ -112,6 +113,7 @@ class Discretization {
   Discretization withElementOrder(const std::vector<int>& order) const;
 
  private:
+  struct Stiffness;
   Discretization() = default;  // withElementOrder() fills the rest
   // `topology`: the triangles as an OpenMesh mesh (null for tets).
   void build(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements,
@@ -119,7 +121,7 @@ class Discretization {
   template <int K>
   void buildElements(const Eigen::MatrixXd& P3, double tinyMeasure);
   template <int K>
-  SparseMatrix assembleStiffness(std::vector<int>& start, std::vector<int>& adjacency) const;
+  SparseMatrix assembleStiffness(Stiffness& s) const;
   void buildComponents(int n);
 
   MeshKind kind_ = MeshKind::Surface;
@@ -133,9 +135,11 @@ class Discretization {
   struct Stiffness {
     std::once_flag once;
     SparseMatrix K;
-    // K's pattern, the vertex adjacency as compressed rows, when build() made it already (tets:
-    // the mean edge length); released once K is assembled.
+    // K's pattern, the vertex adjacency as compressed rows, and the elements around each
+    // vertex, when build() made them already (tets: the mean edge length); released once K is
+    // assembled.
     std::vector<int> start, adjacency;
+    Incidence around;
   };
   std::shared_ptr<Stiffness> stiffness_ = std::make_shared<Stiffness>();
   Eigen::VectorXd mass_;
