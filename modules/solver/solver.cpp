@@ -343,7 +343,8 @@ Eigen::MatrixXd SpdSolver::solve(const Eigen::MatrixXd& B) {
   return X;
 }
 
-Partition::Partition(const std::vector<bool>& fixed) : local_(fixed.size()), isFixed_(fixed) {
+Partition::Partition(const std::vector<bool>& fixed)
+    : local_(fixed.size()), isFixed_(fixed.begin(), fixed.end()) {
   for (size_t i = 0; i < fixed.size(); ++i) {
     auto& list = fixed[i] ? fixed_ : free_;
     local_[i] = static_cast<int>(list.size());

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -63,7 +64,7 @@ class Partition {
   int numFixed() const { return static_cast<int>(fixed_.size()); }
   const std::vector<int>& freeIds() const { return free_; }
   const std::vector<int>& fixedIds() const { return fixed_; }
-  bool isFixed(int i) const { return isFixed_[i]; }
+  bool isFixed(int i) const { return isFixed_[static_cast<std::size_t>(i)] != 0; }
   /// Position of unknown i among the free (or fixed) ones.
   int local(int i) const { return local_[i]; }
   /// A_FF (free x free) and A_FJ (free x fixed) of an n x n matrix.
@@ -77,7 +78,7 @@ class Partition {
 
  private:
   std::vector<int> free_, fixed_, local_;
-  std::vector<bool> isFixed_;
+  std::vector<unsigned char> isFixed_;  // bytes: read once per matrix entry by the blocks
 };
 
 /// min 1/2 x^T A x - x^T b with x fixed on a partition (libigl's min_quad_with_fixed): solves

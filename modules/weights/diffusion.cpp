@@ -131,7 +131,7 @@ std::vector<int> nearestHandles(const SparseMatrix& K, const Eigen::MatrixXd& X,
   const int n = static_cast<int>(K.cols());
   std::vector<int> owner(static_cast<size_t>(n), -1), heap, at(static_cast<size_t>(n), -1);
   std::vector<double> dist(static_cast<size_t>(n), INFINITY);
-  std::vector<bool> settled(static_cast<size_t>(n), false);
+  std::vector<unsigned char> settled(static_cast<size_t>(n), 0);
   heap.reserve(static_cast<size_t>(n));
   const auto before = [&dist](int a, int b) {
     return dist[a] < dist[b] || (dist[a] == dist[b] && a < b);
