@@ -338,7 +338,9 @@ Eigen::MatrixXd SpdSolver::solve(const Eigen::MatrixXd& B) {
   Eigen::MatrixXd X = size_ == 0 ? Eigen::MatrixXd(0, B.cols()) : impl_->solve(B);
   stats_.solves += 1;
   stats_.solveSeconds += timer.seconds();
-  if (!X.allFinite())
+  // A finite sum has no NaN or infinite term; only a sum that is not finite (which an overflow
+  // of finite terms can also make) needs the check of every entry.
+  if (!std::isfinite(X.sum()) && !X.allFinite())
     throw NonFiniteSolution("solver: the solution is not finite (the system is singular)");
   return X;
 }

@@ -202,8 +202,8 @@ void DiffusionCore::preparePartition() {
   const SparseMatrix& K = disc_.stiffness();
   owner_ = nearestHandles(K, disc_.rest(), sets_);
   partition_ = Partition(fixed);
-  KFF_ = partition_.freeFree(K);
-  KFJ_ = partition_.freeFixed(K);
+  partition_.freeFree(K).swap(KFF_);  // swapped in: assigning would copy
+  partition_.freeFixed(K).swap(KFJ_);
   partitionDirty_ = false;
 }
 
@@ -261,31 +261,27 @@ void DiffusionCore::prepareMatrix(bool analyzeAgain) {
     N_(i) = M(v) / r(v);
   }
   const double t = absoluteTime();
-  SparseMatrix A;
-  switch (params_.order) {
-    case DiffusionOrder::First:
-      A = lowerShifted(N_, t, KFF_);
-      break;
-    case DiffusionOrder::ImplicitEuler:
-      A = lowerShifted(N_, t / params_.steps, KFF_);
-      break;
-    case DiffusionOrder::Second: {
-      if (params_.solve == DiffusionSolve::Pcg) {
-        A = lowerShifted(N_, t / std::sqrt(2.0), KFF_);
+  // Returned, not assigned: Eigen's SparseMatrix copies on assignment from a returned matrix.
+  const SparseMatrix A = [&]() -> SparseMatrix {
+    switch (params_.order) {
+      case DiffusionOrder::First:
+        return lowerShifted(N_, t, KFF_);
+      case DiffusionOrder::ImplicitEuler:
+        return lowerShifted(N_, t / params_.steps, KFF_);
+      case DiffusionOrder::Second:
         break;
-      }
-      if (productDirty_) {
-        KNK_ = SparseMatrix(KFF_ * N_.cwiseInverse().asDiagonal()) * KFF_;
-        productDirty_ = false;
-      }
-      SparseMatrix Nmat(nf, nf);
-      Nmat.reserve(Eigen::VectorXi::Constant(nf, 1));
-      for (int i = 0; i < nf; ++i) Nmat.insert(i, i) = N_(i);
-      A = SparseMatrix(
-          SparseMatrix(Nmat + t * KFF_ + (0.5 * t * t) * KNK_).triangularView<Eigen::Lower>());
-      break;
     }
-  }
+    if (params_.solve == DiffusionSolve::Pcg) return lowerShifted(N_, t / std::sqrt(2.0), KFF_);
+    if (productDirty_) {
+      KNK_ = SparseMatrix(KFF_ * N_.cwiseInverse().asDiagonal()) * KFF_;
+      productDirty_ = false;
+    }
+    SparseMatrix Nmat(nf, nf);
+    Nmat.reserve(Eigen::VectorXi::Constant(nf, 1));
+    for (int i = 0; i < nf; ++i) Nmat.insert(i, i) = N_(i);
+    return SparseMatrix(
+        SparseMatrix(Nmat + t * KFF_ + (0.5 * t * t) * KNK_).triangularView<Eigen::Lower>());
+  }();
   solver_.compute(A, analyzeAgain);
   matrixDirty_ = false;
 }
