@@ -22,20 +22,22 @@ Eigen::MatrixXd Discretization::restFrame(int e) const {
 
 namespace {
 
-// The extent of the bounding box of the rows of P3 that the elements use (indices checked).
+// The extent of the bounding box of the rows of P3 that the elements use (indices checked):
+// the used rows marked first, then each taken once (min and max do not depend on the order).
 Eigen::Vector3d usedExtent(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements) {
-  Eigen::Vector3d extent;
-  for (int c = 0; c < 3; ++c) {
-    double lo = INFINITY, hi = -INFINITY;
-    for (Eigen::Index j = 0; j < elements.cols(); ++j)
-      for (Eigen::Index e = 0; e < elements.rows(); ++e) {
-        const double x = P3(elements(e, j), c);
-        lo = std::min(lo, x);
-        hi = std::max(hi, x);
-      }
-    extent(c) = hi - lo;
+  std::vector<unsigned char> used(static_cast<size_t>(P3.rows()), 0);
+  for (Eigen::Index j = 0; j < elements.cols(); ++j)
+    for (Eigen::Index e = 0; e < elements.rows(); ++e)
+      used[static_cast<size_t>(elements(e, j))] = 1;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
+  for (Eigen::Index v = 0; v < P3.rows(); ++v) {
+    if (!used[static_cast<size_t>(v)]) continue;
+    for (int c = 0; c < 3; ++c) {
+      lo(c) = std::min(lo(c), P3(v, c));
+      hi(c) = std::max(hi(c), P3(v, c));
+    }
   }
-  return extent;
+  return hi - lo;
 }
 
 // Throws unless the diagonal of `extent` lies in [kMinMeshSize, kMaxMeshSize] (or is 0: the
