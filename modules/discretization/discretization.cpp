@@ -245,7 +245,8 @@ SparseMatrix Discretization::assembleStiffness(Stiffness& s) const {
   const int n = numVertices();
   if (s.around.start.empty()) s.around = elementsAround(elements_, n);
   const Incidence& around = s.around;
-  std::vector<int>&start = s.start, &adjacency = s.adjacency;
+  std::vector<int>& start = s.start;
+  std::vector<int>& adjacency = s.adjacency;
   if (start.empty()) vertexAdjacency(elements_, around, start, adjacency);
   SparseMatrix stiffness(n, n);
   stiffness.resizeNonZeros(static_cast<Eigen::Index>(adjacency.size()));
