@@ -22,13 +22,19 @@ Eigen::MatrixXd Discretization::restFrame(int e) const {
 
 namespace {
 
-// The extent of the bounding box of the rows of P3 that the elements use (indices checked):
-// the used rows marked first, then each taken once (min and max do not depend on the order).
-Eigen::Vector3d usedExtent(const Eigen::MatrixXd& P3, const Eigen::MatrixXi& elements) {
-  std::vector<unsigned char> used(static_cast<size_t>(P3.rows()), 0);
+// Which of the n vertices the elements use (indices checked), a byte each: the bounding box
+// and the components take them from here.
+std::vector<unsigned char> usedVertices(const Eigen::MatrixXi& elements, Eigen::Index n) {
+  std::vector<unsigned char> used(static_cast<size_t>(n), 0);
   for (Eigen::Index j = 0; j < elements.cols(); ++j)
     for (Eigen::Index e = 0; e < elements.rows(); ++e)
       used[static_cast<size_t>(elements(e, j))] = 1;
+  return used;
+}
+
+// The extent of the bounding box of the used rows of P3, each taken once (min and max do not
+// depend on the order).
+Eigen::Vector3d usedExtent(const Eigen::MatrixXd& P3, const std::vector<unsigned char>& used) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(INFINITY), hi = -lo;
   for (Eigen::Index v = 0; v < P3.rows(); ++v) {
     if (!used[static_cast<size_t>(v)]) continue;
@@ -288,27 +294,21 @@ const SparseMatrix& Discretization::stiffness() const {
 }
 
 // Referenced vertices and components.
-void Discretization::buildComponents(int n) {
+void Discretization::buildComponents(const std::vector<unsigned char>& used) {
+  const int n = static_cast<int>(used.size());
   const int m = static_cast<int>(elements_.rows());
   const int k = static_cast<int>(elements_.cols());
-  // component_ marks the referenced vertices (0) first: an int per vertex is cheaper to set
-  // once per element slot than a bit of active_, which is set once per vertex below.
-  component_.assign(n, -1);
+  active_.assign(used.begin(), used.end());
   DisjointSets sets(n);
   // Column by column (the elements are stored so): the same sets in any order of unions, and
   // the components below are numbered by their first vertex, not by the sets' roots.
-  for (int e = 0; e < m; ++e) component_[elements_(e, 0)] = 0;
   for (int i = 1; i < k; ++i)
-    for (int e = 0; e < m; ++e) {
-      component_[elements_(e, i)] = 0;
-      sets.unite(elements_(e, 0), elements_(e, i));
-    }
-  active_.assign(n, false);
+    for (int e = 0; e < m; ++e) sets.unite(elements_(e, 0), elements_(e, i));
+  component_.assign(n, -1);
   std::vector<int> rootId(n, -1);
   numComponents_ = 0;
   for (int v = 0; v < n; ++v) {
-    if (component_[v] < 0) continue;
-    active_[v] = true;
+    if (!used[static_cast<size_t>(v)]) continue;
     const int r = sets.find(v);
     if (rootId[r] < 0) rootId[r] = numComponents_++;
     component_[v] = rootId[r];
@@ -327,7 +327,8 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   Eigen::MatrixXd P3 = Eigen::MatrixXd::Zero(positions.rows(), 3);
   P3.leftCols(cols) = positions.leftCols(cols);
   // The bounding box of the referenced vertices, checked before any area or volume.
-  const Eigen::Vector3d extent = usedExtent(P3, elements);
+  const std::vector<unsigned char> used = usedVertices(elements, P3.rows());
+  const Eigen::Vector3d extent = usedExtent(P3, used);
   checkSize(extent);
   diagonal_ = extent.norm();
 
@@ -343,7 +344,7 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   else
     buildElements<3>(P3, tinyMeasure);
   if (k == 4) interiorTetFacets(P3, records, facets_);
-  buildComponents(static_cast<int>(P3.rows()));
+  buildComponents(used);
 }
 
 Discretization::Thinnest Discretization::thinnestElement() const {

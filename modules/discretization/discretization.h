@@ -122,7 +122,7 @@ class Discretization {
   void buildElements(const Eigen::MatrixXd& P3, double tinyMeasure);
   template <int K>
   SparseMatrix assembleStiffness(Stiffness& s) const;
-  void buildComponents(int n);
+  void buildComponents(const std::vector<unsigned char>& used);
 
   MeshKind kind_ = MeshKind::Surface;
   int dim_ = 3;
