@@ -422,7 +422,7 @@ void EliminatedSolver::setMatrix(const SparseMatrix& A, bool samePattern) {
     throw InvalidParameter("solver: matrix size " + std::to_string(A.rows()) +
                            " does not match the partition (" + std::to_string(partition_.size()) +
                            " unknowns)");
-  AFJ_ = partition_.freeFixed(A);
+  partition_.freeFixed(A).swap(AFJ_);  // swapped in: assigning a returned matrix would copy
   {
     // The solver reads the lower triangle only: keeping just that halves the copy that lives
     // through the factorization (and the pattern kept for comparison).
