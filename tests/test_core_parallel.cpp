@@ -3,25 +3,59 @@
 // taken the serial budget, then run on the pool's threads.
 #include <diffreg/core/parallel.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
 #include <catch2/catch.hpp>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <mutex>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <thread>
 #include <utility>
 #include <vector>
 
 namespace parallel = diffreg::parallel;
 
-// First in this file: CTest runs the file's cases in one process, in this order, so nothing has
-// run a loop yet (under Catch2's --order rand this case may find the pool started).
-TEST_CASE("loops stay on the calling thread until they have taken the serial budget",
-          "[core][parallel]") {
+namespace {
+
+constexpr const char* kFreshCase =
+    "loops stay on the calling thread until they have taken the serial budget";
+constexpr const char* kFreshVariable = "DIFFREG_TEST_FRESH_PROCESS";
+
+// The serial budget and the pool belong to the process, and the other cases spend the one and
+// start the other. So the case that needs a process in which no loop has run yet runs in a new
+// process of this test program, alone, whatever order the cases run in here (Catch2's
+// --order rand, a filter); `true` when this is that process.
+bool inFreshProcess() {
+  if (std::getenv(kFreshVariable)) return true;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
+  const std::filesystem::path log = std::filesystem::temp_directory_path() /
+                                    ("diffreg-parallel-" + std::to_string(::getpid()) + ".txt");
+  const std::string command = std::string(kFreshVariable) + "=1 '" + self.string() + "' '" +
+                              kFreshCase + "' > '" + log.string() + "' 2>&1";
+  const int status = std::system(command.c_str());
+  std::ifstream in(log);
+  const std::string output((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::filesystem::remove(log);
+  INFO(output);
+  CHECK(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  return false;
+}
+
+}  // namespace
+
+TEST_CASE(kFreshCase, "[core][parallel]") {
+  if (!inFreshProcess()) return;
   REQUIRE_FALSE(parallel::poolStarted());
   const std::thread::id caller = std::this_thread::get_id();
   std::vector<int> order;
