@@ -1,6 +1,7 @@
 // forChunks (modules/core/parallel.h): every chunk exactly once with its bounds, exceptions
 // reach the caller, and the loops of a process stay on the calling thread until they have
 // taken the serial budget, then run on the pool's threads.
+#include <diffreg/core/file.h>
 #include <diffreg/core/parallel.h>
 
 #include <sys/wait.h>
@@ -12,8 +13,6 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <mutex>
 #include <set>
@@ -44,8 +43,8 @@ bool inFreshProcess() {
   const std::string command = std::string(kFreshVariable) + "=1 '" + self.string() +
                               "' --warn NoTests '" + kFreshCase + "' > '" + log.string() + "' 2>&1";
   const int status = std::system(command.c_str());
-  std::ifstream in(log);
-  const std::string output((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string output =
+      diffreg::readFileLimited(log.string(), "test output", diffreg::limits::textBytes);
   std::filesystem::remove(log);
   INFO(output);
   CHECK(WIFEXITED(status));
