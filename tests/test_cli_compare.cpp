@@ -30,6 +30,7 @@ TEST_CASE("diffreg compare: table, report and picture of none / uniform / non-un
   CHECK(std::count(out.begin(), out.end(), '\n') == 5);  // header, rule, three variants
   for (const char* row : {"| none |", "| uniform |", "| nonuniform |"})
     CHECK(out.find(row) != std::string::npos);
+  CHECK(out.find("not converged") == std::string::npos);  // every variant ran to its stop
 
   const auto report = nlohmann::json::parse(slurp(s.dir / "c.json"));
   REQUIRE(report["variants"].size() == 3);
@@ -49,6 +50,25 @@ TEST_CASE("diffreg compare: table, report and picture of none / uniform / non-un
   const Image picture = readPng((s.dir / "c.png").string());
   CHECK(picture.width == 2 * 300 + 3 * 10);
   CHECK(picture.height == 2 * 200 + 3 * 10);
+}
+
+TEST_CASE(
+    "diffreg compare: a variant stopped by the iteration cap says so in the table and "
+    "on stderr",
+    "[cli][compare]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s("cli-compare-cap");
+  const ToolRun r =
+      s.run("compare -i '" + shipped("bar.obj") + "' --handles '" + shipped("bar-bend.json") +
+            "' -o c.png --deform 'deform iterations=2' --size 120x100");
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  // Each of the three rows: its iterations, then the mark.
+  const std::string mark = "| 2 (not converged) |";
+  size_t rows = 0;
+  for (size_t at = r.out.find(mark); at != std::string::npos; at = r.out.find(mark, at + 1)) ++rows;
+  CHECK(rows == 3);
+  CHECK(r.err.find("deform: not converged after 2 iterations") != std::string::npos);
 }
 
 TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -123,8 +124,42 @@ TEST_CASE("diffreg reports a long deformation's iterations on stderr unless quie
   const ToolRun quiet = s.run(run + " --progress-after 0 -q");
   REQUIRE(quiet.code == 0);
   CHECK(quiet.err.empty());
-  // A short run under the default threshold of one second prints no iteration.
+  // A short run under the default threshold of one second prints no iteration, only that it
+  // stopped unconverged (tolerance=0 asks for a fixed count).
   const ToolRun shortRun = s.run(run);
   REQUIRE(shortRun.code == 0);
-  CHECK(shortRun.err.find("iteration") == std::string::npos);
+  CHECK(shortRun.err.find("deform: iteration") == std::string::npos);
+  CHECK(shortRun.err.find("warning: deform: not converged after 5 iterations") !=
+        std::string::npos);
+  CHECK(shortRun.err.find("tolerance=0") != std::string::npos);
+}
+
+TEST_CASE(
+    "diffreg says on stderr when a deformation stops at its iteration cap, with how far "
+    "it is, and nothing when it converges",
+    "[cli][deform]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s("cli-deform-cap");
+  const std::string in =
+      "-i '" + shipped("bar.obj") + "' --handles '" + shipped("bar-bend.json") + "' -o out.ply ";
+  const ToolRun capped = s.run(in + "--filter 'deform iterations=3' --report r.json");
+  REQUIRE(capped.code == 0);
+  INFO(capped.err);
+  const auto report = nlohmann::json::parse(slurp(s.dir / "r.json"));
+  const auto& deform = report["filters"][0];
+  REQUIRE_FALSE(deform["converged"].get<bool>());
+  // One line: the count, the criterion as the report has it (two digits), the remedy.
+  char gain[32];
+  std::snprintf(gain, sizeof gain, "%.2g", deform["criterion"].get<double>());
+  CHECK(capped.err.find("diffreg: warning: deform: not converged after 3 iterations: the last "
+                        "one changed the energy by " +
+                        std::string(gain) + " of it (above tolerance=1e-7; raise iterations)\n") !=
+        std::string::npos);
+  const ToolRun quiet = s.run(in + "--filter 'deform iterations=3' -q");
+  REQUIRE(quiet.code == 0);
+  CHECK(quiet.err.empty());
+  const ToolRun converged = s.run(in + "--filter deform --report r.json");
+  REQUIRE(converged.code == 0);
+  CHECK(nlohmann::json::parse(slurp(s.dir / "r.json"))["filters"][0]["converged"].get<bool>());
+  CHECK(converged.err.find("not converged") == std::string::npos);
 }

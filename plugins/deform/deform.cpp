@@ -1,6 +1,7 @@
 #include "deform/deform.h"
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
 #include <diffreg/core/timer.h>
 
 #include "deform/measure.h"
@@ -9,6 +10,8 @@
 #include <diffreg/deformation/metrics.h>
 #include <diffreg/pipeline/params.h>
 #include "plugins.h"
+
+#include <cstdio>
 
 namespace diffreg {
 
@@ -75,6 +78,23 @@ DeformationOptions deformationOptionsOf(const ParamMap& params) {
   return options;
 }
 
+namespace {
+
+/// The terminal's word that a run ended unconverged (the report has it as `converged`), with
+/// how far it is: the criterion, what the last iteration changed.
+void warnNotConverged(const DeformationResult& result, const DeformationOptions& options) {
+  char gain[32];
+  std::snprintf(gain, sizeof gain, "%.2g", result.criterion);
+  const std::string why =
+      options.relTolerance > 0.0
+          ? "above tolerance=" + formatNumber(options.relTolerance) + "; raise iterations"
+          : "tolerance=0 asks for no stop on convergence";
+  warn("deform: not converged after " + std::to_string(result.iterations) +
+       " iterations: the last one changed the energy by " + gain + " of it (" + why + ")");
+}
+
+}  // namespace
+
 FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
   if (doc.handles.empty()) throw InvalidParameter("filter deform needs handles: give --handles");
   Timer timer;
@@ -101,6 +121,7 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
   }
   engine.setProgress(nullptr);
   const DeformationResult& result = engine.lastRun();
+  if (!result.converged) warnNotConverged(result, options);
 
   timer.reset();
   doc.mesh.setPositions(engine.positions());

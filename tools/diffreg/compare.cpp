@@ -67,9 +67,10 @@ std::string markdownTable(const std::vector<Variant>& variants) {
                              : v.name == "uniform" ? fixed(v.beta, 3)
                                                    : "weights";
     md << "| " << v.name << " | " << beta << " | " << fixed(m["D_max"].get<double>(), 4) << " | "
-       << fixed(m["D_ave"].get<double>(), 4) << " | " << fixed(m["D_dev"].get<double>(), 4)
-       << " | " << fixed(m["dist"].get<double>(), 4) << " | " << m["inverted"].get<int>() << " | "
-       << fixed(m["energy"].get<double>(), 4) << " | " << deform["iterations"].get<int>() << " |\n";
+       << fixed(m["D_ave"].get<double>(), 4) << " | " << fixed(m["D_dev"].get<double>(), 4) << " | "
+       << fixed(m["dist"].get<double>(), 4) << " | " << m["inverted"].get<int>() << " | "
+       << fixed(m["energy"].get<double>(), 4) << " | " << deform["iterations"].get<int>()
+       << (deform["converged"].get<bool>() ? "" : " (not converged)") << " |\n";
   }
   return md.str();
 }
