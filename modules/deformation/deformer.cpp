@@ -264,6 +264,9 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
     if (takeMixed) {
       advance(X, mixed, mixedT, mixedEnergy, E, result);
       ++result.accelerated;
+    } else if (plainEnergy > E) {  // rounding alone (plainStep): stationary at X
+      result.converged = true;
+      return;
     } else {
       advance(X, plain, plainT, plainEnergy, E, result);
     }
@@ -322,8 +325,16 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     return decrease;
   };
   // Stationarity is decided by a plain step: what one more local/global iteration gains.
+  // A plain step is a descent in exact arithmetic (plainStep): one that ends above E has only
+  // rounding left to gain. The run then ends at X, stationary, and reports no higher energy.
   auto stationary = [&] {
-    result.criterion = accept(plainStep(trial, trialT, E));
+    const double energy = plainStep(trial, trialT, E);
+    if (energy > E) {
+      result.criterion = 0.0;
+      result.converged = true;
+      return;
+    }
+    result.criterion = accept(energy);
     if (result.criterion <= tolerance) result.converged = true;
   };
   if (stationarityDue_) {  // resumed where the last run's cap came before that step
@@ -354,6 +365,11 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     if (!found) {  // the plain step, a descent by construction
       history.reset();
       energy = plainStep(trial, trialT, E);
+      if (energy > E) {  // up by rounding alone: stationary at X (as in stationary())
+        result.criterion = 0.0;
+        result.converged = true;
+        return;
+      }
     }
     result.criterion = accept(energy);
     if (result.criterion <= tolerance) {
