@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 
@@ -69,6 +70,34 @@ TEST_CASE(
   for (size_t at = r.out.find(mark); at != std::string::npos; at = r.out.find(mark, at + 1)) ++rows;
   CHECK(rows == 3);
   CHECK(r.err.find("deform: not converged after 2 iterations") != std::string::npos);
+}
+
+TEST_CASE("diffreg compare --rbf clamps the summed RBF weights unless clamp is given",
+          "[cli][compare]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s("cli-compare-rbf");
+  // The bar's handles at the default magnitude 1: the middle handle's Gaussian reaches the
+  // others, so the plain sums exceed 1 there.
+  std::string handles = slurp(shipped("bar-bend.json"));
+  for (size_t at; (at = handles.find(", \"magnitude\": 0.5")) != std::string::npos;)
+    handles.erase(at, std::string(", \"magnitude\": 0.5").size());
+  REQUIRE(handles.find("magnitude") == std::string::npos);
+  std::ofstream(s.dir / "h.json") << handles;
+  const std::string run =
+      "compare -i '" + shipped("bar.obj") + "' --handles h.json --size 120x100 ";
+  const ToolRun r = s.run(run + "-o c.png --rbf -q");
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("| rbf |") != std::string::npos);
+  CHECK(std::count(r.out.begin(), r.out.end(), '\n') == 6);  // header, rule, four variants
+  // Unclamped on request: deform names the vertex farthest above 1 and the remedy.
+  const ToolRun plain = s.run(run + "-o d.png --rbf 'rbf_weights clamp=false' -q");
+  CHECK(plain.code == 1);
+  INFO(plain.err);
+  CHECK(lineCount(plain.err) == 1);
+  CHECK(plain.err.find("outside [0, 1]") != std::string::npos);
+  CHECK(plain.err.find("rbf_weights clamp=true") != std::string::npos);
+  CHECK_FALSE(fs::exists(s.dir / "d.png"));
 }
 
 TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",

@@ -101,8 +101,12 @@ TEST_CASE(
     CHECK(x[b] > 1.0);
     CHECK(entry["max"].get<double>() > entry["max_magnitude"].get<double>());
     // Such weights cannot serve as beta: deform says why, and what to do.
+    // The message names the vertex farthest outside.
+    Eigen::Index top = 0;
+    x.maxCoeff(&top);
     CHECK_THROWS_WITH(runOne(doc, "deform", {{"regularization", "nonuniform"}}),
-                      Catch::Contains("outside [0, 1]") && Catch::Contains("clamp=true"));
+                      Catch::Contains("outside [0, 1]") && Catch::Contains("clamp=true") &&
+                          Catch::Contains("the weight of vertex " + std::to_string(top) + " is "));
 
     // clamp=true cuts the sum at 1.
     Document clamped = input;

@@ -3,9 +3,39 @@
 #include <diffreg/core/error.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <string>
 
 namespace diffreg {
+
+namespace {
+
+// Non-uniform weights must lie in [0, 1] (beta_k > 1 would make (1 - beta_k) a_k negative).
+// The error names the vertex farthest outside, with digits enough to show an excess of 1e-9.
+void checkVertexWeights(const Eigen::VectorXd& x) {
+  int worst = -1;
+  double excess = 0.0;
+  for (int i = 0; i < x.size(); ++i) {
+    const double e = std::isnan(x(i)) ? INFINITY : std::max(x(i) - 1.0, -x(i));
+    if (e > excess) {
+      excess = e;
+      worst = i;
+    }
+  }
+  if (worst < 0) return;
+  const double v = x(worst);
+  char value[40];
+  std::snprintf(value, sizeof value, "%.10g", v);
+  throw InvalidParameter(
+      "regularization: the weight of vertex " + std::to_string(worst) + " is " + value +
+      ", outside [0, 1]" +
+      (v > 1.0 ? " (summed RBF weights exceed 1 where another handle's Gaussian reaches a "
+                 "handle: rbf_weights clamp=true clamps them)"
+               : ""));
+}
+
+}  // namespace
 
 RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regularization mode,
                                                 double beta, const Eigen::VectorXd& x) {
@@ -30,13 +60,7 @@ RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regu
         throw InvalidParameter("regularization: " + std::to_string(x.size()) +
                                " vertex weights for a mesh of " +
                                std::to_string(disc.numVertices()) + " vertices");
-      for (int i = 0; i < x.size(); ++i)
-        if (!(x(i) >= 0.0 && x(i) <= 1.0))
-          throw InvalidParameter("regularization: the weight of vertex " + std::to_string(i) +
-                                 " is " + std::to_string(x(i)) + ", outside [0, 1]" +
-                                 (x(i) > 1.0 ? " (summed RBF weights exceed 1 between nearby "
-                                               "handles: rbf_weights clamp=true clamps them)"
-                                             : ""));
+      checkVertexWeights(x);
       const Eigen::MatrixXi& el = disc.elements();
       w.element.resize(m);
       for (int k = 0; k < m; ++k) {

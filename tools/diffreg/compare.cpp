@@ -130,12 +130,12 @@ Image comparePicture(const Document& rest, const Document& weighted,
 /// The options --help lists, in its order.
 po::options_description compareOptions() {
   po::options_description visible("Options");
-  visible.add_options()                                                                //
-      ("help,h", "show this help")                                                     //
-      ("input,i", po::value<std::string>(), "mesh (obj, off, ply, om, mesh, node/ele)")  //
-      ("handles", po::value<std::string>(), "handle file (JSON)")                      //
-      ("output,o", po::value<std::string>(), "picture (PNG)")                          //
-      ("report,r", po::value<std::string>(), "JSON report with every variant's filters")  //
+  visible.add_options()                                                                       //
+      ("help,h", "show this help")                                                            //
+      ("input,i", po::value<std::string>(), "mesh (obj, off, ply, om, mesh, node/ele)")       //
+      ("handles", po::value<std::string>(), "handle file (JSON)")                             //
+      ("output,o", po::value<std::string>(), "picture (PNG)")                                 //
+      ("report,r", po::value<std::string>(), "JSON report with every variant's filters")      //
       ("markdown,m", po::value<std::string>(), "the Markdown table, also printed on stdout")  //
       ("weights", po::value<std::string>()->default_value("diffuse_weights"),
        "the weights filter and its parameters")  //
@@ -143,7 +143,8 @@ po::options_description compareOptions() {
        "the deform filter's parameters (regularization and beta are set per variant)")  //
       ("beta", po::value<double>(), "uniform beta (default: the peak of the weights)")  //
       ("rbf", po::value<std::string>()->implicit_value("rbf_weights"),
-       "add non-uniform regularization by RBF weights (filter and parameters)")  //
+       "add non-uniform regularization by RBF weights (filter and parameters; clamp=true "
+       "unless given: deform needs weights in [0, 1])")  //
       ("size", po::value<std::string>()->default_value("560x380"),
        "size of one panel of the picture, WxH pixels")  //
       ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
@@ -181,7 +182,12 @@ CompareSettings compareSettings(const po::variables_map& vm) {
     if (!(*s.beta >= 0.0 && *s.beta <= 1.0))
       throw UsageError("compare: --beta " + formatNumber(*s.beta) + " is not in [0, 1]");
   }
-  if (vm.count("rbf")) s.rbf = parseStep(vm["rbf"].as<std::string>(), "--rbf");
+  if (vm.count("rbf")) {
+    s.rbf = parseStep(vm["rbf"].as<std::string>(), "--rbf");
+    // Summed Gaussians exceed 1 near a handle of magnitude 1 whenever another handle's tail
+    // reaches it, and deform refuses weights above 1: clamped unless the caller says.
+    if (s.rbf->filter == "rbf_weights") s.rbf->values.emplace("clamp", "true");
+  }
   s.outputs = checkTableOutputs(vm, "compare");
   return s;
 }
