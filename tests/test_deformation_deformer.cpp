@@ -492,6 +492,43 @@ TEST_CASE("a component left free is a clear singular-system error", "[deformatio
   }
 }
 
+TEST_CASE(
+    "a component whose every vertex is a handle needs no handle points, even with "
+    "beta = 1",
+    "[deformation][session]") {
+  // A surface of two components: the tube bar held at both ends, and a flat strip (the planar
+  // bar at z = 0, beside it) held at every vertex and moved. With beta = 1 a component needs 4
+  // non-coplanar handle points, which the flat strip cannot have; held everywhere it needs none.
+  const auto tube = makeBar(MeshKind::Surface);
+  const auto strip = makeBar(MeshKind::Planar);
+  const int n = tube->numVertices(), ns = strip->numVertices();
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(n + ns, 3);
+  P.topRows(n) = tube->rest();
+  P.bottomRows(ns).leftCols(2) = strip->rest();
+  P.bottomRows(ns).col(1).array() += 5.0;
+  Eigen::MatrixXi E(tube->numElements() + strip->numElements(), 3);
+  E << tube->elements(), strip->elements().array() + n;
+  const Discretization two(MeshKind::Surface, P, E);
+  std::vector<int> handles = bothEnds(*tube);
+  for (int v = n; v < n + ns; ++v) handles.push_back(v);
+  Eigen::MatrixXd targets = rows(P, handles);
+  targets.bottomRows(ns).rowwise() += Eigen::RowVector3d(0.5, 0.25, 0.125);
+  for (double beta : {0.5, 1.0}) {
+    INFO("beta " << beta);
+    DeformationOptions o;
+    o.regularization = Regularization::Uniform;
+    o.beta = beta;
+    DeformationSession s(two, o);
+    s.setHandles(handles);
+    s.setTargets(targets);
+    const DeformationResult r = s.solve();
+    CHECK(r.converged);
+    CHECK((rows(r.positions, handles) - targets).cwiseAbs().maxCoeff() == 0.0);
+    // The tube, held at its ends at rest, stays at rest.
+    CHECK((r.positions.topRows(n) - tube->rest()).cwiseAbs().maxCoeff() < 1e-9);
+  }
+}
+
 TEST_CASE("too few handle points for the energy or for beta = 1 is a singular-system error",
           "[deformation][session]") {
   const auto planar = makeBar(MeshKind::Planar);

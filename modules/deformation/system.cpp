@@ -526,6 +526,7 @@ std::string RegularizedSystem::singularity() const {
     // regularizer").
     const int need = hasEnergy[ci] ? base : d;
     const auto& h = handlesOf[ci];
+    if (static_cast<int>(h.size()) >= size[ci]) continue;  // every vertex held: nothing free
     Eigen::MatrixXd P(static_cast<Eigen::Index>(h.size()), d);
     for (size_t i = 0; i < h.size(); ++i)
       P.row(static_cast<Eigen::Index>(i)) = disc.rest().row(h[i]);

@@ -351,6 +351,7 @@ UpdateReport EditEngine::update() {
     computed_.reset();
     report = UpdateReport{};
     report.solved = false;
+    report.converged = false;  // nothing solved, nothing converged (refine() skips it too)
     report.message = e.what();
     report.failure = std::current_exception();
   }

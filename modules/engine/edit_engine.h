@@ -144,7 +144,7 @@ struct UpdateReport {
   double metricsSeconds = 0.0, seconds = 0.0;
   int iterations = 0;  ///< global steps of the deformation
   /// The deformation (and the unregularized reference, when solved) met the stationarity
-  /// tolerance; false: refine() continues them.
+  /// tolerance; false: refine() continues them (false too when nothing solved, `solved`).
   bool converged = true;
   /// The deformation's stopping criterion at the end (DeformationResult::criterion): how far
   /// from converged the shape is.
