@@ -308,8 +308,18 @@ TEST_CASE("Document::load reads the mesh, the handles and the rest positions") {
   CHECK((doc.rest - doc.mesh.positions()).norm() == 0.0);
   REQUIRE(doc.handles.handles.size() == 2);
   CHECK(doc.handles.handles[1].range == 2.0);
+  CHECK(doc.handlesPath == handlePath);
   CHECK(Document::load(meshPath).handles.empty());
   CHECK_THROWS_AS(Document::load((dir / "none.off").string()), IoError);
+  // A handle file with an empty list: a filter that needs handles names it.
+  const std::string emptyPath = (dir / "empty.json").string();
+  std::ofstream(emptyPath) << R"({"handles": []})";
+  Document empty = Document::load(meshPath, emptyPath);
+  CHECK(empty.handles.empty());
+  Pipeline pipeline;
+  pipeline.add("deform");
+  CHECK_THROWS_WITH(pipeline.run(empty),
+                    "filter deform needs handles: the handle file '" + emptyPath + "' holds none");
   fs::remove_all(dir);
 }
 

@@ -8,6 +8,7 @@ Document Document::load(const std::string& meshPath, const std::string& handlesP
   Document doc;
   doc.mesh = readMesh(meshPath);
   if (!handlesPath.empty()) doc.handles = readHandles(handlesPath, doc.mesh);
+  doc.handlesPath = handlesPath;
   doc.rest = doc.mesh.positions();
   doc.path = meshPath;
   return doc;

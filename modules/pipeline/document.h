@@ -21,6 +21,7 @@ struct Document {
   HandleSet handles;
   Eigen::MatrixXd rest;  ///< positions when loaded, n x 3
   std::string path;      ///< where the mesh came from ("" when built in code)
+  std::string handlesPath;  ///< the handle file read into `handles` ("" for none)
   /// The options of the last deform filter run on this document (without its weights and
   /// progress callback): measure takes the energy and regularization from them and solves the
   /// same edit without regularization for Dist. Empty until a deform filter has run.
@@ -35,6 +36,14 @@ struct Document {
   /// reported. Exceptions thrown here end the filter.
   std::function<void(const std::string& filter, int iteration, double energy, double criterion)>
       progress;
+
+  /// The error of a filter that needs handles when there are none: give a handle file, or
+  /// the one given holds none.
+  std::string missingHandles(const std::string& filter) const {
+    return "filter " + filter + " needs handles: " +
+           (handlesPath.empty() ? std::string("give --handles")
+                                : "the handle file '" + handlesPath + "' holds none");
+  }
 
   /// outputFile(path) when set, else `path`.
   std::string writePath(const std::string& path) const {

@@ -28,7 +28,7 @@ void Pipeline::check(const Document& doc) const {
     const Filter& filter = registry_.get(steps_[i].filter);
     const ParamMap params(filter.name(), filter.params(), steps_[i].values);
     if (filter.needsHandles() && doc.handles.empty())
-      throw InvalidParameter("filter " + filter.name() + " needs handles: give --handles");
+      throw InvalidParameter(doc.missingHandles(filter.name()));
     filter.check(doc, params);
     for (const auto& property : filter.requires(params)) {
       if (available.count(property)) continue;

@@ -96,7 +96,7 @@ void warnNotConverged(const DeformationResult& result, const DeformationOptions&
 }  // namespace
 
 FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
-  if (doc.handles.empty()) throw InvalidParameter("filter deform needs handles: give --handles");
+  if (doc.handles.empty()) throw InvalidParameter(doc.missingHandles("deform"));
   Timer timer;
   EditEngine& engine = doc.engine();  // the discretization is built here unless cached
   const double discretization = timer.seconds();
