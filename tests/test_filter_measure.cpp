@@ -93,10 +93,13 @@ TEST_CASE("measure: metrics match the library's and a rest mesh measures deforme
   Document input = Document::load(deformed);
   Pipeline p;
   p.add("measure", {{"rest", shipped("bar.obj")}});
-  const nlohmann::json later = p.run(input)["filters"][0];
+  nlohmann::json later;
+  const std::string warned = stderrOf([&] { later = p.run(input)["filters"][0]; });
   CHECK(later["metrics"]["D_max"].get<double>() == Approx(m.dMax).epsilon(1e-5));
   CHECK(later["metrics"]["dist"].is_null());
   CHECK(later["dist_reference"].is_null());
+  CHECK(warned.find("warning: measure: Dist is null: no deform filter ran before it") !=
+        std::string::npos);
 }
 
 TEST_CASE("measure without a deformation reports an undistorted mesh", "[filter][measure]") {

@@ -28,21 +28,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// What `f` prints on std::cerr (where warnings go).
-template <class F>
-std::string stderrOf(F&& f) {
-  std::ostringstream captured;
-  std::streambuf* const old = std::cerr.rdbuf(captured.rdbuf());
-  try {
-    f();
-  } catch (...) {
-    std::cerr.rdbuf(old);
-    throw;
-  }
-  std::cerr.rdbuf(old);
-  return captured.str();
-}
-
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream ss;

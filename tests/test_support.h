@@ -11,7 +11,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <iterator>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -31,6 +33,21 @@ std::string messageOf(F&& f) {
   }
   FAIL("no exception of the expected type");
   return "";
+}
+
+/// What `f` prints on std::cerr (where warnings go).
+template <class F>
+std::string stderrOf(F&& f) {
+  std::ostringstream captured;
+  std::streambuf* const old = std::cerr.rdbuf(captured.rdbuf());
+  try {
+    f();
+  } catch (...) {
+    std::cerr.rdbuf(old);
+    throw;
+  }
+  std::cerr.rdbuf(old);
+  return captured.str();
 }
 
 /// A mesh or handle file the project ships in meshes/.

@@ -1,11 +1,12 @@
 #include "deform/measure.h"
 
 #include <diffreg/core/error.h>
-#include "deform/element_maps.h"
+#include <diffreg/core/log.h>
 #include <diffreg/deformation/deformer.h>
-#include <diffreg/engine/edit_engine.h>
 #include <diffreg/deformation/metrics.h>
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/mesh/io.h>
+#include "deform/element_maps.h"
 
 #include <optional>
 
@@ -57,7 +58,8 @@ std::vector<ParamSpec> MeasureFilter::params() const {
                 "Energy whose residuals define D_k; auto: the deform filter's (else arap)."),
       stringParam("reference", "",
                   "Mesh file to measure Dist against; empty: the same edit solved without "
-                  "regularization."),
+                  "regularization (after a deform filter in the same pipeline; without one, "
+                  "Dist is null)."),
       stringParam("rest", "",
                   "Undeformed mesh file, when the input is already deformed; empty: the mesh as "
                   "loaded."),
@@ -109,6 +111,11 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
       reference = engine.referencePositions();
     }
     referenceText = "unregularized solve";
+  } else if (!restPath.empty()) {
+    // A deformed mesh read from a file: nothing says which edit made it.
+    warn(
+        "measure: Dist is null: no deform filter ran before it, so there is no unregularized "
+        "solve of the edit; give reference=FILE to measure Dist against a mesh");
   }
 
   const ElementMaps maps = elementMaps(disc, energy, positions);
