@@ -5,6 +5,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/mesh/shapes.h>
+#include <diffreg/pipeline/pipeline.h>
 #include "plugins.h"
 
 #include <catch2/catch.hpp>
@@ -280,6 +281,46 @@ TEST_CASE("bad .mlx scripts: one line naming the file, the line and the valid ch
     CHECK(what.find('\n') == std::string::npos);
     for (const auto& needle : c.needles) CHECK(what.find(needle) != std::string::npos);
   }
+}
+
+TEST_CASE(
+    "what a pipeline's check finds in a script's step names the script and its <filter> "
+    "line",
+    "[pipeline][mlx]") {
+  Document doc;
+  doc.mesh = makeRectangle(1.0, 1.0, 2, 2);
+  doc.rest = doc.mesh.positions();
+  const auto stepsOf = [](const std::string& body) {
+    return parseFilterScript(
+        "<!DOCTYPE FilterScript>\n<FilterScript>\n" + body + "</FilterScript>\n", "s.mlx",
+        Registry::builtin());
+  };
+  // A parameter only the filter's own check requires (render's file).
+  {
+    Pipeline pipeline;
+    for (const Step& step : stepsOf(" <filter name=\"measure\"/>\n <filter name=\"render\"/>\n"))
+      pipeline.add(step);
+    CHECK_THROWS_MATCHES(
+        pipeline.check(doc), InvalidParameter,
+        Catch::Matchers::Message("s.mlx:4: filter render: parameter 'file' is required (the PNG "
+                                 "to write)"));
+  }
+  // A property nothing before the step produces: the same type, the line in front.
+  {
+    Pipeline pipeline;
+    for (const Step& step :
+         stepsOf(" <filter name=\"render\">\n  <Param name=\"file\" type=\"RichString\" "
+                 "value=\"x.png\"/>\n  <Param name=\"property\" type=\"RichEnum\" value=\"1\" "
+                 "enum_val1=\"distortion\" enum_cardinality=\"4\"/>\n </filter>\n"))
+      pipeline.add(step);
+    CHECK_THROWS_AS(pipeline.check(doc), MissingProperty);
+    CHECK_THROWS_WITH(pipeline.check(doc), Catch::Matchers::StartsWith("s.mlx:3: step 1 "));
+  }
+  // The same steps built in code: no origin, the message as it was.
+  Pipeline inCode;
+  inCode.add("render");
+  CHECK_THROWS_WITH(inCode.check(doc),
+                    Catch::Matchers::StartsWith("filter render: parameter 'file' is required"));
 }
 
 TEST_CASE("readFilterScript reads a file and names a missing one", "[pipeline][mlx]") {

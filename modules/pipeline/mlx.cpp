@@ -110,6 +110,7 @@ class ScriptReader {
     const std::vector<ParamSpec> specs = filter->params();
     Step step;
     step.filter = *name;
+    step.origin = source_ + ":" + std::to_string(element.line);
     for (const XmlElement& param : element.children) {
       line_ = param.line;
       if (param.name != "Param") {

@@ -11,11 +11,34 @@ namespace diffreg {
 
 Pipeline& Pipeline::add(const std::string& filter,
                         const std::map<std::string, std::string>& values) {
-  steps_.push_back({filter, values});
+  return add(Step{filter, values});
+}
+
+Pipeline& Pipeline::add(Step step) {
+  steps_.push_back(std::move(step));
   return *this;
 }
 
 void Pipeline::check(const Document& doc) const {
+  // An error in a step written in a script names the script and the line: rethrown, as its
+  // own type, with the step's origin in front.
+  size_t at = 0;
+  const auto origin = [&](const std::exception& e) { return steps_[at].origin + ": " + e.what(); };
+  try {
+    checkSteps(doc, at);
+  } catch (const InvalidParameter& e) {
+    if (steps_[at].origin.empty()) throw;
+    throw InvalidParameter(origin(e));
+  } catch (const MissingProperty& e) {
+    if (steps_[at].origin.empty()) throw;
+    throw MissingProperty(origin(e));
+  } catch (const IoError& e) {
+    if (steps_[at].origin.empty()) throw;
+    throw IoError(origin(e));
+  }
+}
+
+void Pipeline::checkSteps(const Document& doc, size_t& at) const {
   std::set<std::string> available, elementProperties;
   std::map<std::string, std::string> dropped;  // element property -> the step that removed it
   for (const auto& name : doc.mesh.vertexScalarNames()) available.insert(name);
@@ -25,6 +48,7 @@ void Pipeline::check(const Document& doc) const {
   }
 
   for (size_t i = 0; i < steps_.size(); ++i) {
+    at = i;
     const Filter& filter = registry_.get(steps_[i].filter);
     const ParamMap params(filter.name(), filter.params(), steps_[i].values);
     if (filter.needsHandles() && doc.handles.empty())

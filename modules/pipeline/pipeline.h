@@ -12,12 +12,16 @@ namespace diffreg {
 struct Step {
   std::string filter;
   std::map<std::string, std::string> values;  ///< raw text values; defaults filled in on run
+  /// Where the step was written ("script.mlx:12" for a script's <filter>; "" otherwise): the
+  /// errors check() finds in it start with this.
+  std::string origin = {};
 };
 
 class Pipeline {
  public:
   explicit Pipeline(const Registry& registry = Registry::builtin()) : registry_(registry) {}
   Pipeline& add(const std::string& filter, const std::map<std::string, std::string>& values = {});
+  Pipeline& add(Step step);
   const std::vector<Step>& steps() const { return steps_; }
 
   /// Checks every step before any work: known filters, valid parameters, handles present where
@@ -31,6 +35,9 @@ class Pipeline {
   nlohmann::json run(Document& doc) const;
 
  private:
+  // check()'s work; `at` is the step being checked.
+  void checkSteps(const Document& doc, size_t& at) const;
+
   const Registry& registry_;
   std::vector<Step> steps_;
 };

@@ -243,8 +243,7 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
   }
   Pipeline pipeline;
   if (!script.is_none())  // a MeshLab .mlx script's steps first, as the tool's -s
-    for (const Step& step : readFilterScript(script.cast<std::string>()))
-      pipeline.add(step.filter, step.values);
+    for (const Step& step : readFilterScript(script.cast<std::string>())) pipeline.add(step);
   if (py::isinstance<py::str>(filters))
     throw InvalidParameter(
         "run: filters must be a list of filter strings, e.g. ['diffuse_weights t=0.01']");

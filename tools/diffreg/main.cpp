@@ -122,8 +122,7 @@ int runPipeline(const po::variables_map& vm) {
   // Everything that can be checked before work is checked first.
   Pipeline pipeline;
   if (vm.count("script")) {
-    for (const Step& step : readFilterScript(vm["script"].as<std::string>()))
-      pipeline.add(step.filter, step.values);
+    for (const Step& step : readFilterScript(vm["script"].as<std::string>())) pipeline.add(step);
   }
   if (vm.count("filter")) {
     for (const auto& spec : vm["filter"].as<std::vector<std::string>>()) {
