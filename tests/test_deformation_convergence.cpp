@@ -85,18 +85,19 @@ TEST_CASE(
   for (MeshKind kind : kAllKinds) {
     const Bent b = bentBar(kind);
     for (Regularization mode : kModes)
-      for (Acceleration acc : {Acceleration::Lbfgs, Acceleration::Anderson}) {
+      for (Acceleration acc : {Acceleration::Lbfgs, Acceleration::Anderson, Acceleration::None}) {
         DeformationOptions o = optionsFor(b, Energy::Arap, mode);
         o.acceleration = acc;
         o.relTolerance = 0.0;
-        // L-BFGS reaches rounding on every kind within 1100 iterations; Anderson on the thin
-        // tube would take thousands more, so only its energies are checked.
-        const bool lbfgs = acc == Acceleration::Lbfgs;
-        o.maxIterations = lbfgs ? 5000 : 300;
+        // Every run reaches rounding within 5000 iterations but Anderson and plain
+        // local/global on the thin tube, which would take many more: only their energies are
+        // checked, over 300.
+        const bool slow = kind == MeshKind::Surface && acc != Acceleration::Lbfgs;
+        o.maxIterations = slow ? 300 : 5000;
         const DeformationResult r = deform(*b.disc, o, b.handles, b.targets);
         INFO(toString(kind) << " " << toString(mode) << " " << toString(acc) << ", " << r.iterations
                             << " iterations");
-        if (lbfgs) {
+        if (!slow) {
           CHECK(r.converged);
           CHECK(r.criterion == 0.0);
         }

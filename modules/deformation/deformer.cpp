@@ -240,6 +240,18 @@ void DeformationCore::iterateReference(int maxIterations, double tolerance, Eige
   }
 }
 
+namespace {
+
+// A plain step (global, then local) is a descent in exact arithmetic: one that ends above the
+// current energy gains less than rounding. The run then ends at the current iterate, converged,
+// and reports no new iteration.
+void settleAtRounding(DeformationResult& result) {
+  result.criterion = 0.0;
+  result.converged = true;
+}
+
+}  // namespace
+
 void DeformationCore::descend(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                               DeformationResult& result) {
   AndersonMixer& mixer = anderson_;
@@ -264,8 +276,8 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
     if (takeMixed) {
       advance(X, mixed, mixedT, mixedEnergy, E, result);
       ++result.accelerated;
-    } else if (plainEnergy > E) {  // rounding alone (plainStep): stationary at X
-      result.converged = true;
+    } else if (plainEnergy > E) {
+      settleAtRounding(result);
       return;
     } else {
       advance(X, plain, plainT, plainEnergy, E, result);
@@ -325,22 +337,20 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     return decrease;
   };
   // Stationarity is decided by a plain step: what one more local/global iteration gains.
-  // A plain step is a descent in exact arithmetic (plainStep): one that ends above E has only
-  // rounding left to gain. The run then ends at X, stationary, and reports no higher energy.
+  // Returns whether it was taken (not when it rose: settleAtRounding).
   auto stationary = [&] {
     const double energy = plainStep(trial, trialT, E);
     if (energy > E) {
-      result.criterion = 0.0;
-      result.converged = true;
-      return;
+      settleAtRounding(result);
+      return false;
     }
     result.criterion = accept(energy);
     if (result.criterion <= tolerance) result.converged = true;
+    return true;
   };
   if (stationarityDue_) {  // resumed where the last run's cap came before that step
     stationarityDue_ = false;
-    stationary();
-    report(result);
+    if (stationary()) report(result);
     if (result.converged) return;
   }
   while (result.iterations < maxIterations) {
@@ -365,20 +375,19 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     if (!found) {  // the plain step, a descent by construction
       history.reset();
       energy = plainStep(trial, trialT, E);
-      if (energy > E) {  // up by rounding alone: stationary at X (as in stationary())
-        result.criterion = 0.0;
-        result.converged = true;
+      if (energy > E) {
+        settleAtRounding(result);
         return;
       }
     }
     result.criterion = accept(energy);
-    if (result.criterion <= tolerance) {
-      if (result.iterations < maxIterations)
-        stationary();
-      else
-        stationarityDue_ = true;
-    }
     report(result);
+    if (result.criterion <= tolerance) {
+      if (result.iterations >= maxIterations)
+        stationarityDue_ = true;
+      else if (stationary())
+        report(result);
+    }
     if (result.converged || outOfTime(began)) return;
   }
 }

@@ -160,7 +160,8 @@ struct DeformationResult {
   /// Total regularized energy (ResidualModel::energy) after each iteration, with the targets of
   /// its local step; preceded by the energy of the initial guess when one is used (ASAP or
   /// given). Linear energies: one value, at the solution. With the exact local step the values
-  /// never rise.
+  /// never rise, but for a given shape's, measured before the first global step puts the
+  /// handles at their targets.
   std::vector<double> energies;
   int iterations = 0;     ///< global steps taken (accepted iterations)
   bool converged = true;  ///< the criterion fell below the tolerance within the cap
