@@ -92,8 +92,8 @@ TEST_CASE("diffreg compare --rbf clamps the summed RBF weights unless clamp is g
   CHECK(std::count(r.out.begin(), r.out.end(), '\n') == 6);  // header, rule, four variants
   // Unclamped on request: deform names the vertex farthest above 1 and the remedy.
   const ToolRun plain = s.run(run + "-o d.png --rbf 'rbf_weights clamp=false' -q");
-  CHECK(plain.code == 1);
   INFO(plain.err);
+  CHECK(plain.code == 1);
   CHECK(lineCount(plain.err) == 1);
   CHECK(plain.err.find("outside [0, 1]") != std::string::npos);
   CHECK(plain.err.find("rbf_weights clamp=true") != std::string::npos);

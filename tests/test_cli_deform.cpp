@@ -125,7 +125,7 @@ TEST_CASE("diffreg reports a long deformation's iterations on stderr unless quie
   REQUIRE(quiet.code == 0);
   CHECK(quiet.err.empty());
   // A short run under the default threshold of one second prints no iteration, only that it
-  // stopped unconverged (tolerance=0 asks for a fixed count).
+  // stopped unconverged (with tolerance=0 a run goes on until only rounding is left).
   const ToolRun shortRun = s.run(run);
   REQUIRE(shortRun.code == 0);
   CHECK(shortRun.err.find("deform: iteration") == std::string::npos);
@@ -143,8 +143,8 @@ TEST_CASE(
   const std::string in =
       "-i '" + shipped("bar.obj") + "' --handles '" + shipped("bar-bend.json") + "' -o out.ply ";
   const ToolRun capped = s.run(in + "--filter 'deform iterations=3' --report r.json");
-  REQUIRE(capped.code == 0);
   INFO(capped.err);
+  REQUIRE(capped.code == 0);
   const auto report = nlohmann::json::parse(slurp(s.dir / "r.json"));
   const auto& deform = report["filters"][0];
   REQUIRE_FALSE(deform["converged"].get<bool>());
@@ -160,6 +160,15 @@ TEST_CASE(
   CHECK(quiet.err.empty());
   const ToolRun converged = s.run(in + "--filter deform --report r.json");
   REQUIRE(converged.code == 0);
-  CHECK(nlohmann::json::parse(slurp(s.dir / "r.json"))["filters"][0]["converged"].get<bool>());
+  const auto done = nlohmann::json::parse(slurp(s.dir / "r.json"))["filters"][0];
+  CHECK(done["converged"].get<bool>());
   CHECK(converged.err.find("not converged") == std::string::npos);
+  // A converged L-BFGS run ends with the plain iteration that confirms the stop; capped just
+  // before it, the last iteration is within the tolerance and the warning says what is missing.
+  const int last = done["iterations"].get<int>();
+  const ToolRun early = s.run(in + "--filter 'deform iterations=" + std::to_string(last - 1) + "'");
+  INFO(early.err);
+  REQUIRE(early.code == 0);
+  CHECK(early.err.find("within tolerance=1e-7, but the cap came before the plain iteration that "
+                       "confirms convergence") != std::string::npos);
 }

@@ -416,6 +416,11 @@ TEST_CASE("edit engine: updateOrThrow rethrows the failure's own exception", "[e
   engine.setEdit(barHandles(bar, 1.0), p);
   CHECK_THROWS_AS(engine.updateOrThrow(), InvalidParameter);
   CHECK_FALSE(engine.lastUpdate().solved);
+  CHECK_FALSE(engine.lastUpdate().converged);  // nothing solved, nothing converged
+  // Asked again with nothing changed: the same answer.
+  const UpdateReport again = engine.update();
+  CHECK_FALSE(again.solved);
+  CHECK_FALSE(again.converged);
   CHECK(engine.positions() == bar.positions());  // the previous results are kept
 
   // Given weights of the wrong length are refused by validation, naming them.

@@ -12,7 +12,7 @@ namespace diffreg {
 namespace {
 
 // Non-uniform weights must lie in [0, 1] (beta_k > 1 would make (1 - beta_k) a_k negative).
-// The error names the vertex farthest outside, with digits enough to show an excess of 1e-9.
+// The error names the vertex farthest outside and by how much.
 void checkVertexWeights(const Eigen::VectorXd& x) {
   int worst = -1;
   double excess = 0.0;
@@ -24,9 +24,13 @@ void checkVertexWeights(const Eigen::VectorXd& x) {
     }
   }
   if (worst < 0) return;
+  // Above 1 as 1 + the excess: ten digits of the value would print 1 for an excess of 1e-12.
   const double v = x(worst);
-  char value[40];
-  std::snprintf(value, sizeof value, "%.10g", v);
+  char value[48];
+  if (v > 1.0)
+    std::snprintf(value, sizeof value, "1 + %.3g", v - 1.0);
+  else
+    std::snprintf(value, sizeof value, "%.3g", v);
   throw InvalidParameter(
       "regularization: the weight of vertex " + std::to_string(worst) + " is " + value +
       ", outside [0, 1]" +

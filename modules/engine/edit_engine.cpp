@@ -337,6 +337,7 @@ UpdateReport EditEngine::update() {
   UpdateReport report;
   if (computedVersion_ == version_ && !refine_) {
     report.solved = last_.solved;
+    report.converged = last_.converged;
     report.message = last_.message;
     report.failure = last_.failure;
     return report;
