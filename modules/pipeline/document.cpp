@@ -14,6 +14,12 @@ Document Document::load(const std::string& meshPath, const std::string& handlesP
   return doc;
 }
 
+std::string Document::missingHandles(const std::string& filter) const {
+  return "filter " + filter + " needs handles: " +
+         (handlesPath.empty() ? std::string("give --handles")
+                              : "the handle file '" + handlesPath + "' holds none");
+}
+
 const Discretization& Document::restDiscretization() const {
   const RestCache* c = restCache_.get();
   const bool valid = c && c->kind == mesh.kind() && c->rest.rows() == rest.rows() &&

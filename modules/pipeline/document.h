@@ -37,13 +37,9 @@ struct Document {
   std::function<void(const std::string& filter, int iteration, double energy, double criterion)>
       progress;
 
-  /// The error of a filter that needs handles when there are none: give a handle file, or
-  /// the one given holds none.
-  std::string missingHandles(const std::string& filter) const {
-    return "filter " + filter + " needs handles: " +
-           (handlesPath.empty() ? std::string("give --handles")
-                                : "the handle file '" + handlesPath + "' holds none");
-  }
+  /// The error of `filter`, which needs handles, when there are none: that the caller give a
+  /// handle file, or that the one given (handlesPath) holds none.
+  std::string missingHandles(const std::string& filter) const;
 
   /// outputFile(path) when set, else `path`.
   std::string writePath(const std::string& path) const {

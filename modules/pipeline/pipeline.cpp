@@ -19,22 +19,28 @@ Pipeline& Pipeline::add(Step step) {
   return *this;
 }
 
+namespace {
+
+// `e` again, as its own type E, with the origin of steps[at] in front (when it has one).
+template <class E>
+[[noreturn]] void rethrowFrom(const std::vector<Step>& steps, size_t at, const E& e) {
+  if (at >= steps.size() || steps[at].origin.empty()) throw e;
+  throw E(steps[at].origin + ": " + e.what());
+}
+
+}  // namespace
+
 void Pipeline::check(const Document& doc) const {
-  // An error in a step written in a script names the script and the line: rethrown, as its
-  // own type, with the step's origin in front.
+  // An error in a step written in a script names the script and the line.
   size_t at = 0;
-  const auto origin = [&](const std::exception& e) { return steps_[at].origin + ": " + e.what(); };
   try {
     checkSteps(doc, at);
   } catch (const InvalidParameter& e) {
-    if (steps_[at].origin.empty()) throw;
-    throw InvalidParameter(origin(e));
+    rethrowFrom(steps_, at, e);
   } catch (const MissingProperty& e) {
-    if (steps_[at].origin.empty()) throw;
-    throw MissingProperty(origin(e));
+    rethrowFrom(steps_, at, e);
   } catch (const IoError& e) {
-    if (steps_[at].origin.empty()) throw;
-    throw IoError(origin(e));
+    rethrowFrom(steps_, at, e);
   }
 }
 

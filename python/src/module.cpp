@@ -240,6 +240,7 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
     else if (!handles.is_none())
       set = toHandles(mesh, handles, targets, ranges, magnitudes);
     doc = makeDocument(std::move(mesh), std::move(set));
+    if (py::isinstance<py::str>(handles)) doc.handlesPath = handles.cast<std::string>();
   }
   Pipeline pipeline;
   if (!script.is_none())  // a MeshLab .mlx script's steps first, as the tool's -s

@@ -105,6 +105,15 @@ def test_run_on_arrays_with_handle_lists():
     np.testing.assert_allclose(result["V"], X, atol=1e-12)
 
 
+def test_run_names_a_handle_file_that_holds_no_handles(tmp_path):
+    empty = tmp_path / "empty.json"
+    empty.write_text('{"handles": []}')
+    V, E, *_ = scenario("bar.obj", "bar-bend.json")
+    for source in (mesh("bar.obj"), (V, E)):
+        with pytest.raises(ValueError, match="the handle file '.*empty.json' holds none"):
+            diffreg.run(source, ["deform"], handles=str(empty))
+
+
 def test_run_with_a_meshlab_script(tmp_path):
     script = tmp_path / "weights.mlx"
     script.write_text('<!DOCTYPE FilterScript>\n<FilterScript>\n'
