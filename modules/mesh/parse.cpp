@@ -1257,7 +1257,8 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
          " faces would make the mesh non-manifold; each was split off with its own copies of "
          "its vertices (" +
          std::to_string(importer.duplicated) + " vertices appended after the file's " +
-         std::to_string(n) + ")");
+         std::to_string(n) +
+         "), which leaves it a piece of its own that a deformation needs handles on");
   }
   return mesh;
 }
