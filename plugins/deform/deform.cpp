@@ -85,21 +85,17 @@ namespace {
 void warnNotConverged(const DeformationResult& result, const DeformationOptions& options) {
   char gain[32];
   std::snprintf(gain, sizeof gain, "%.2g", result.criterion);
-  const std::string head =
-      "deform: not converged after " + std::to_string(result.iterations) + " iterations: ";
-  if (options.relTolerance > 0.0 && result.criterion <= options.relTolerance) {
-    // The last iteration gained little enough; the plain step that would confirm it did not fit.
-    warn(head + "the last one changed the energy by " + gain +
-         " of it, within tolerance=" + formatNumber(options.relTolerance) +
-         ", but the cap came before the plain iteration that confirms convergence; raise "
-         "iterations");
-    return;
-  }
+  const double tolerance = options.relTolerance;
   const std::string why =
-      options.relTolerance > 0.0
-          ? "above tolerance=" + formatNumber(options.relTolerance) + "; raise iterations"
-          : "tolerance=0 stops only where rounding is all that is left; raise iterations";
-  warn(head + "the last one changed the energy by " + gain + " of it (" + why + ")");
+      tolerance == 0.0 ? "tolerance=0 stops only where rounding is all that is left"
+      : result.criterion <= tolerance
+          // The last iteration gained little enough; the plain step that confirms it did not fit.
+          ? "within tolerance=" + formatNumber(tolerance) +
+                ", but the cap came before the plain iteration that confirms convergence"
+          : "above tolerance=" + formatNumber(tolerance);
+  warn("deform: not converged after " + std::to_string(result.iterations) +
+       " iterations: the last one changed the energy by " + gain + " of it (" + why +
+       "; raise iterations)");
 }
 
 }  // namespace
