@@ -54,6 +54,7 @@ void DiffusionCore::setHandles(const std::vector<std::vector<int>>& vertexSets,
   sets_ = vertexSets;
   ranges_ = ranges;
   magnitudes_ = magnitudes;
+  owner_.reset();
   partitionDirty_ = matrixDirty_ = productDirty_ = true;
 }
 
@@ -108,13 +109,6 @@ double DiffusionCore::absoluteTime() const {
     case TimeUnit::MeanEdge2: return params_.t * disc_.meanEdgeLength() * disc_.meanEdgeLength();
   }
   return params_.t;
-}
-
-Eigen::VectorXd DiffusionCore::rangeField() const {
-  Eigen::VectorXd r = Eigen::VectorXd::Ones(disc_.numVertices());
-  for (size_t v = 0; v < owner_.size(); ++v)
-    if (owner_[v] >= 0) r(v) = ranges_[owner_[v]];
-  return r;
 }
 
 namespace {
@@ -191,8 +185,18 @@ std::vector<int> nearestHandles(const SparseMatrix& K, const Eigen::MatrixXd& X,
 
 }  // namespace
 
-// Fixed unknowns (handles, unreferenced vertices), K's blocks, and the nearest handle of every
-// vertex along mesh edges (the pattern of K).
+// A vertex no handle reaches keeps r = 1, so where every r_j is 1 (the default) the field is 1
+// everywhere and the nearest-handle search is not needed; it runs on the first other r_j.
+Eigen::VectorXd DiffusionCore::rangeField() const {
+  Eigen::VectorXd r = Eigen::VectorXd::Ones(disc_.numVertices());
+  if (std::all_of(ranges_.begin(), ranges_.end(), [](double rj) { return rj == 1.0; })) return r;
+  if (!owner_) owner_ = nearestHandles(disc_.stiffness(), disc_.rest(), sets_);
+  for (size_t v = 0; v < owner_->size(); ++v)
+    if ((*owner_)[v] >= 0) r(static_cast<Eigen::Index>(v)) = ranges_[(*owner_)[v]];
+  return r;
+}
+
+// Fixed unknowns (handles, unreferenced vertices) and K's blocks.
 void DiffusionCore::preparePartition() {
   const int n = disc_.numVertices();
   std::vector<bool> fixed(n, false);
@@ -200,7 +204,6 @@ void DiffusionCore::preparePartition() {
   for (const std::vector<int>& set : sets_)
     for (int v : set) fixed[v] = true;
   const SparseMatrix& K = disc_.stiffness();
-  owner_ = nearestHandles(K, disc_.rest(), sets_);
   partition_ = Partition(fixed);
   partition_.freeFree(K).swap(KFF_);  // swapped in: assigning would copy
   partition_.freeFixed(K).swap(KFJ_);

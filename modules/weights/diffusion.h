@@ -151,7 +151,8 @@ class DiffusionWeights {
   const DiffusionSolveInfo& lastSolve() const;
   /// Per-vertex range factor r_i actually used: each vertex takes the r_j of the handle nearest
   /// to it along mesh edges (the paper leaves open how a handle's r_j reaches the free vertices
-  /// whose diffusion speed it scales; docs/method.md, "Diffused weights").
+  /// whose diffusion speed it scales; docs/method.md, "Diffused weights"). Known from
+  /// setHandles() on; the search along the edges runs only when some r_j is not 1.
   Eigen::VectorXd rangeField() const;
 
  private:

@@ -6,6 +6,7 @@
 #include <diffreg/solver/solver.h>
 #include <diffreg/weights/diffusion.h>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -58,7 +59,8 @@ class DiffusionCore {
   DiffusionParams params_;
   std::vector<std::vector<int>> sets_;
   std::vector<double> ranges_, magnitudes_;
-  std::vector<int> owner_;  // nearest handle per vertex (-1 when unreachable)
+  // The nearest handle of every vertex (-1 when unreachable), found when a range field needs it.
+  mutable std::optional<std::vector<int>> owner_;
   Partition partition_;     // fixed: handle and unreferenced vertices
   SparseMatrix KFF_, KFJ_;
   Eigen::VectorXd N_;       // diag(M_FF R_FF^-1)
