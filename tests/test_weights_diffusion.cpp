@@ -6,7 +6,9 @@
 #include <diffreg/mesh/shapes.h>
 
 #include <catch2/catch.hpp>
+
 #include <cmath>
+#include <type_traits>
 
 using namespace diffreg;
 
@@ -45,6 +47,10 @@ DiffusionParams params(double t, DiffusionOrder order, TimeUnit unit = TimeUnit:
 }
 
 }  // namespace
+
+// The weights refer to their discretization, so a temporary one must not compile.
+static_assert(!std::is_constructible_v<DiffusionWeights, Discretization&&>);
+static_assert(std::is_constructible_v<DiffusionWeights, const Discretization&>);
 
 TEST_CASE("Weights equal m_j at handles and obey the maximum principle (first order)",
           "[weights]") {

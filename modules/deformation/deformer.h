@@ -22,8 +22,10 @@ class DeformationCore;
 
 class DeformationSession {
  public:
+  /// The session refers to `disc`, which must outlive it (a temporary does not compile).
   /// \throw InvalidParameter for invalid regularization options (see setRegularization).
   DeformationSession(const Discretization& disc, const DeformationOptions& options = {});
+  DeformationSession(Discretization&&, const DeformationOptions& = {}) = delete;
   ~DeformationSession();
   DeformationSession(DeformationSession&&) noexcept;
   DeformationSession& operator=(DeformationSession&&) noexcept;

@@ -116,8 +116,10 @@ class DiffusionCore;
 
 class DiffusionWeights {
  public:
+  /// The session refers to `disc`, which must outlive it (a temporary does not compile).
   explicit DiffusionWeights(const Discretization& disc,
                             SolverBackend backend = defaultSolverBackend());
+  explicit DiffusionWeights(Discretization&&, SolverBackend = defaultSolverBackend()) = delete;
   ~DiffusionWeights();
   DiffusionWeights(DiffusionWeights&&) noexcept;
   DiffusionWeights& operator=(DiffusionWeights&&) noexcept;
