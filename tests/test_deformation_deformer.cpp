@@ -13,6 +13,7 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <type_traits>
 
 using namespace diffreg;
 using namespace diffreg::testing;
@@ -113,6 +114,34 @@ TEST_CASE("all handles moved by one rigid motion give that motion", "[deformatio
       }
     }
   }
+}
+
+// A session refers to its discretization, so a temporary one must not compile.
+static_assert(!std::is_constructible_v<DeformationSession, Discretization&&>);
+static_assert(!std::is_constructible_v<DeformationSession, Discretization&&, DeformationOptions>);
+static_assert(std::is_constructible_v<DeformationSession, const Discretization&>);
+
+TEST_CASE("uniform regularization with the default options regularizes, as the front ends do",
+          "[deformation][session]") {
+  const auto disc = makeBar(MeshKind::Planar);
+  const std::vector<int> handles = bothEnds(*disc);
+  Eigen::MatrixXd targets = rows(disc->rest(), handles);
+  for (Eigen::Index i = 0; i < targets.rows(); ++i)
+    if (targets(i, 0) > 1.0) targets(i, 1) += 1.5;  // the far end lifted
+  const auto solveWith = [&](const DeformationOptions& o) {
+    DeformationSession s(*disc, o);
+    s.setHandles(handles);
+    s.setTargets(targets);
+    return s.solve().positions;
+  };
+  DeformationOptions uniform;
+  uniform.regularization = Regularization::Uniform;
+  DeformationOptions explicitBeta = uniform;
+  explicitBeta.beta = kDefaultUniformBeta;  // the deform filter's, the editor's and Python's
+  const Eigen::MatrixXd plain = solveWith(DeformationOptions{});
+  const Eigen::MatrixXd byDefault = solveWith(uniform);
+  CHECK(maxAbs(byDefault - plain) > 1e-2);
+  CHECK(maxAbs(byDefault - solveWith(explicitBeta)) == 0.0);
 }
 
 TEST_CASE("planar ASAP reproduces a similarity of the handles exactly", "[deformation][session]") {

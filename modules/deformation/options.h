@@ -111,7 +111,7 @@ constexpr int kMaxIterations = 100000;
 struct DeformationOptions {
   Energy energy = Energy::Arap;
   Regularization regularization = Regularization::None;
-  double beta = 0.0;        ///< uniform beta
+  double beta = kDefaultUniformBeta;  ///< uniform beta (none and nonuniform ignore it)
   Eigen::VectorXd weights;  ///< per-vertex weights in [0, 1] for nonuniform
   /// Exact (block coordinate descent on eq. 3, the default) or the reference code's local step.
   LocalStep localStep = LocalStep::Exact;
