@@ -11,6 +11,7 @@
 #include <diffreg/weights/diffusion.h>
 
 #include <memory>
+#include <mutex>
 
 namespace diffreg::python {
 
@@ -20,6 +21,20 @@ namespace {
 ParamMap paramsOf(const std::string& filter, const std::map<std::string, std::string>& values) {
   return ParamMap(filter, Registry::builtin().get(filter).params(), values);
 }
+
+// A session's methods run one at a time: a solve releases the GIL, so another Python thread
+// could otherwise change the session under it. The lock is awaited without the GIL, so a
+// thread waiting for it never blocks the one that holds it.
+class SessionLock {
+ public:
+  explicit SessionLock(std::mutex& mutex) : lock_(mutex, std::defer_lock) {
+    py::gil_scoped_release release;
+    lock_.lock();
+  }
+
+ private:
+  std::unique_lock<std::mutex> lock_;
+};
 
 // The rest mesh and its discretization, which the C++ sessions refer to.
 struct Shape {
@@ -37,13 +52,21 @@ class PyDiffusionWeights {
   }
   void setHandles(const py::object& handles, const py::object& ranges,
                   const py::object& magnitudes) {
+    const SessionLock lock(mutex_);
     const HandleSet set = toHandles(shape_->mesh, handles, py::none(), ranges, magnitudes);
     session_.setHandles(set);
     count_ = static_cast<int>(set.handles.size());
   }
-  void setRange(int handle, double r) { session_.setRange(checked(handle), r); }
-  void setMagnitude(int handle, double m) { session_.setMagnitude(checked(handle), m); }
+  void setRange(int handle, double r) {
+    const SessionLock lock(mutex_);
+    session_.setRange(checked(handle), r);
+  }
+  void setMagnitude(int handle, double m) {
+    const SessionLock lock(mutex_);
+    session_.setMagnitude(checked(handle), m);
+  }
   void setParams(const py::kwargs& kwargs) {
+    const SessionLock lock(mutex_);
     std::map<std::string, std::string> values = values_;
     for (const auto& [key, value] : toParamText(kwargs)) values[key] = value;
     const ParamMap params = paramsOf("diffuse_weights", values);
@@ -51,6 +74,7 @@ class PyDiffusionWeights {
     values_ = params.text();
   }
   py::array solve() {
+    const SessionLock lock(mutex_);
     if (count_ == 0) throw InvalidParameter("DiffusionWeights.solve: call set_handles first");
     Eigen::VectorXd w;
     {
@@ -60,12 +84,19 @@ class PyDiffusionWeights {
     return fromVector(std::move(w));
   }
   py::dict params() const {
+    const SessionLock lock(mutex_);
     py::dict d;
     for (const auto& [key, value] : values_) d[py::str(key)] = value;
     return d;
   }
-  double absoluteTime() const { return session_.absoluteTime(); }
-  py::dict stats() const { return fromStats(session_.stats()); }
+  double absoluteTime() const {
+    const SessionLock lock(mutex_);
+    return session_.absoluteTime();
+  }
+  py::dict stats() const {
+    const SessionLock lock(mutex_);
+    return fromStats(session_.stats());
+  }
 
  private:
   int checked(int handle) const {
@@ -76,6 +107,7 @@ class PyDiffusionWeights {
   }
   std::unique_ptr<Shape> shape_;  // before session_, which refers to it
   DiffusionWeights session_;
+  mutable std::mutex mutex_;
   std::map<std::string, std::string> values_;
   int count_ = 0;
 };
@@ -107,6 +139,7 @@ class PyDeformationSession {
     session_ = std::make_unique<DeformationSession>(shape_->disc, options);
   }
   void setHandles(const py::object& handles) {
+    const SessionLock lock(mutex_);
     const HandleSet set = toHandles(shape_->mesh, handles, py::none(), py::none(), py::none());
     vertices_ = set.allVertices();
     session_->setHandles(vertices_);
@@ -114,6 +147,7 @@ class PyDeformationSession {
     for (const Handle& h : set.handles) perHandle_.push_back(static_cast<int>(h.vertices.size()));
   }
   void setTargets(const py::object& targets) {
+    const SessionLock lock(mutex_);
     if (vertices_.empty()) throw InvalidParameter("DeformationSession: call set_handles first");
     // The same per-handle or stacked forms as deform(); reuse the handle conversion.
     py::list handles;
@@ -135,6 +169,7 @@ class PyDeformationSession {
   }
   void setRegularization(const std::string& mode, const py::object& beta,
                          const py::object& weights) {
+    const SessionLock lock(mutex_);
     std::map<std::string, std::string> values{{"regularization", mode}};
     if (!beta.is_none()) values["beta"] = formatNumber(beta.cast<double>());
     const ParamMap params = paramsOf("deform", values);
@@ -143,30 +178,44 @@ class PyDeformationSession {
     session_->setRegularization(parseEnum<Regularization>(params.getString("regularization")),
                                 params.getFloat("beta"), w);
   }
-  void setBeta(double beta) { session_->setBeta(beta); }
-  void setTimeBudget(double seconds) { session_->setTimeBudget(seconds); }
+  void setBeta(double beta) {
+    const SessionLock lock(mutex_);
+    session_->setBeta(beta);
+  }
+  void setTimeBudget(double seconds) {
+    const SessionLock lock(mutex_);
+    session_->setTimeBudget(seconds);
+  }
   py::object lastTargets() const {
+    const SessionLock lock(mutex_);
     const ElementTargets t = session_->lastTargets();
     if (t.size() == 0) return py::none();
     return fromMatrix(Eigen::MatrixXd(t));
   }
   void setWeights(const py::object& weights) {
+    const SessionLock lock(mutex_);
     session_->setWeights(toVector(weights, "weights", shape_->mesh.numVertices()));
   }
   py::tuple solve(const py::object& iterations, const py::object& tolerance) {
+    const SessionLock lock(mutex_);
     return run(iterations, tolerance, [&](int cap, double tol) { return session_->solve(cap, tol); });
   }
   py::tuple solveFrom(const py::object& initial, const py::object& iterations,
                       const py::object& tolerance) {
+    const SessionLock lock(mutex_);
     const Eigen::MatrixXd X0 =
         toMatrix(initial, "initial", shape_->mesh.numVertices(), 3).leftCols(shape_->disc.dim());
     return run(iterations, tolerance,
                [&](int cap, double tol) { return session_->solveFrom(X0, cap, tol); });
   }
   py::tuple resume(const py::object& iterations, const py::object& tolerance) {
+    const SessionLock lock(mutex_);
     return run(iterations, tolerance, [&](int cap, double tol) { return session_->resume(cap, tol); });
   }
-  py::dict stats() const { return fromStats(session_->stats()); }
+  py::dict stats() const {
+    const SessionLock lock(mutex_);
+    return fromStats(session_->stats());
+  }
 
  private:
   /// `solve(cap, tolerance)` with the limits checked and the GIL released while it runs.
@@ -197,6 +246,7 @@ class PyDeformationSession {
   }
   std::unique_ptr<Shape> shape_;
   std::unique_ptr<DeformationSession> session_;
+  mutable std::mutex mutex_;
   std::vector<int> vertices_;
   std::vector<int> perHandle_;
 };

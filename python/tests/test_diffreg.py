@@ -206,6 +206,40 @@ def test_threads_solve_at_once():
         np.testing.assert_allclose(X, results[0], rtol=0, atol=1e-10)
 
 
+def test_one_session_shared_by_threads():
+    """A session's methods run one at a time, whichever threads call them: every solve uses the
+    targets one of the threads set, whole, and solves as a session of its own would."""
+    from concurrent.futures import ThreadPoolExecutor
+    V, E, handles, targets, _, _ = scenario("cylinder.obj", "cylinder-twist.json")
+
+    def moved(k):
+        return [t + [0.0, 0.0, 0.05 * k] for t in targets]
+
+    def session():
+        s = diffreg.DeformationSession(V, E, iterations=60, tolerance=0)
+        s.set_handles(handles)
+        return s
+    expected = []
+    for k in range(2):
+        alone = session()
+        alone.set_targets(moved(k))
+        expected.append(alone.solve()[0])
+    shared = session()
+
+    def work(k):
+        out = []
+        for _ in range(10):
+            shared.set_targets(moved(k))
+            out.append(shared.solve()[0])
+            shared.stats
+            shared.last_targets()
+        return out
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        runs = list(pool.map(work, range(2)))
+    for X in runs[0] + runs[1]:
+        assert min(np.abs(X - e).max() for e in expected) < 1e-9
+
+
 # ---- errors ---------------------------------------------------------------------------------------
 
 def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
