@@ -1,9 +1,12 @@
 // The edit engine behind every front end (filters, the OpenMesh API, `diffreg serve`): each
 // edit costs what the paper's Fig. 5 says and no more, invalid states are refused without a
 // trace, every mesh kind deforms, and the one-shot uses give what the sessions below it give.
+#include "test_support.h"
+
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/metrics.h>
 #include <diffreg/engine/edit_engine.h>
+#include <diffreg/handles/handles.h>
 #include <diffreg/mesh/io.h>
 
 #include <catch2/catch.hpp>
@@ -119,6 +122,40 @@ TEST_CASE("edit engine: invalid states are refused and leave the session unchang
   bad = s.state();
   bad.handles.push_back(handle(s, bad, {33}));  // already in handle 0
   refused(bad);
+  // What the handle file format refuses: the state's handle file must read back.
+  bad = s.state();
+  bad.handles[0].range = 1e-7;  // below kMinHandleRange
+  refused(bad);
+  bad = s.state();
+  bad.handles.push_back(handle(s, bad, {66}));
+  bad.handles[0].name = bad.handles[1].name = "twin";
+  refused(bad);
+  bad = s.state();
+  bad.handles.push_back(handle(s, bad, {66}));
+  bad.handles[0].name.clear();  // exported as handle-<id>, which the new one is called
+  bad.handles[1].name = handleName(bad.handles[0]);
+  refused(bad);
+}
+
+TEST_CASE("edit engine: the handle file of any accepted state reads back", "[engine]") {
+  EditEngine s(shipped("bar.obj"));
+  EditState state = s.state();
+  state.handles.push_back(handle(s, state, {0, 33}));
+  state.handles.push_back(handle(s, state, {66}));
+  state.handles.push_back(handle(s, state, {98}));
+  state.handles[0].name.clear();
+  state.handles[1].name = "tip";
+  state.handles[2].range = kMinHandleRange;
+  s.setState(state);
+  const HandleSet set = s.handleSet();
+  const testing::TempDir dir;
+  const HandleSet back = readHandles(dir.file("h.json", handlesToJson(set)), s.restMesh());
+  REQUIRE(back.handles.size() == 3);
+  for (size_t j = 0; j < 3; ++j) {
+    CHECK(back.handles[j].name == set.handles[j].name);
+    CHECK(back.handles[j].vertices == set.handles[j].vertices);
+    CHECK(back.handles[j].range == set.handles[j].range);
+  }
 }
 
 TEST_CASE("edit engine: surfaces and tet meshes deform with every energy", "[engine]") {

@@ -318,6 +318,14 @@ TEST_CASE("Bad handles and parameters are clear errors", "[weights]") {
   CHECK_THROWS_AS(w.setHandles({{0}, {0}}, {1.0, 1.0}, {1.0, 1.0}), InvalidParameter);
   CHECK_THROWS_AS(w.setHandles({{0}}, {0.0}, {1.0}), InvalidParameter);
   CHECK_THROWS_AS(w.setHandles({{0}}, {1.0}, {-0.1}), InvalidParameter);
+  // The limits of the handle file format, and of every other front end.
+  CHECK_THROWS_WITH(w.setHandles({{0}}, {1.0}, {1.5}),
+                    Catch::Contains("magnitude must be in [0, 1]"));
+  CHECK_THROWS_WITH(w.setHandles({{0, 0}}, {1.0}, {1.0}),
+                    Catch::Contains("vertex 0 is listed twice"));
+  CHECK_THROWS_AS(w.setHandles({{0}}, {1e-7}, {1.0}), InvalidParameter);
+  w.setHandles({{0}}, {1.0}, {1.0});
+  CHECK_THROWS_WITH(w.setMagnitude(0, 2.0), Catch::Contains("magnitude must be in [0, 1]"));
   CHECK_THROWS_AS(w.setParams(params(0.0, DiffusionOrder::First)), InvalidParameter);
   CHECK_THROWS_AS(w.setParams(params(NAN, DiffusionOrder::First)), InvalidParameter);
   CHECK_THROWS_WITH(parseEnum<DiffusionOrder>("third"), Catch::Contains("first, second, implicit_euler"));

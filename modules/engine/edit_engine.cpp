@@ -236,12 +236,16 @@ void EditEngine::validate(const EditState& s) const {
   const double reach = 1000.0 * std::max(disc_->boundingBoxDiagonal(), 1e-300);
   std::vector<int> owner(static_cast<size_t>(n), -1);
   std::set<int> ids;
+  std::set<std::string> names;
   for (const EditHandle& h : s.handles) {
     const std::string name =
         "handle " + std::to_string(h.id) + (h.name.empty() ? std::string() : " ('" + h.name + "')");
     if (h.id < 0 || h.id >= s.nextId)
       throw InvalidParameter(name + ": id must be in [0, " + std::to_string(s.nextId) + ")");
     if (!ids.insert(h.id).second) throw InvalidParameter(name + ": id used twice");
+    if (!names.insert(handleName(h)).second)
+      throw InvalidParameter(name + ": another handle is named '" + handleName(h) +
+                             "' (a handle file needs names of its own)");
     if (h.vertices.empty()) throw InvalidParameter(name + " selects no vertex");
     for (int v : h.vertices) {
       if (v < 0 || v >= n)
@@ -259,7 +263,7 @@ void EditEngine::validate(const EditState& s) const {
     }
     // Weights alone need no targets.
     if (h.targets.size() == 0 && !s.params.deform && !s.params.reference) {
-      checkRange(name + ": range", h.range, 0.0, 1e6, true);
+      checkRange(name + ": range", h.range, kMinHandleRange, kMaxHandleRange, false);
       checkRange(name + ": magnitude", h.magnitude, 0.0, 1.0, false);
       continue;
     }
@@ -275,7 +279,7 @@ void EditEngine::validate(const EditState& s) const {
         throw InvalidParameter(name + ": the target of vertex " + std::to_string(h.vertices[i]) +
                                " is more than 1000 mesh diagonals away");
     }
-    checkRange(name + ": range", h.range, 0.0, 1e6, true);
+    checkRange(name + ": range", h.range, kMinHandleRange, kMaxHandleRange, false);
     checkRange(name + ": magnitude", h.magnitude, 0.0, 1.0, false);
   }
   const EditParams& p = s.params;
@@ -634,11 +638,15 @@ EditParams editParamsOf(const DeformationOptions& options) {
 
 HandleSet EditEngine::handleSet() const { return toHandleSet(state_); }
 
+std::string handleName(const EditHandle& h) {
+  return h.name.empty() ? "handle-" + std::to_string(h.id) : h.name;
+}
+
 HandleSet toHandleSet(const EditState& state) {
   HandleSet set;
   for (const EditHandle& e : state.handles) {
     Handle h;
-    h.name = e.name.empty() ? "handle-" + std::to_string(e.id) : e.name;
+    h.name = handleName(e);
     h.vertices = e.vertices;
     h.targets = e.targets;
     h.range = e.range;

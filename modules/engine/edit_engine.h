@@ -123,9 +123,14 @@ struct EditHandle {
   std::string name;
   std::vector<int> vertices;
   Eigen::MatrixXd targets;  ///< |vertices| x 3 (planar meshes: z = rest z)
-  double range = 1.0;       ///< r_j > 0
+  double range = 1.0;       ///< r_j in [1e-6, 1e6] (kMinHandleRange, kMaxHandleRange)
   double magnitude = 1.0;   ///< m_j in [0, 1]
 };
+
+/// The name a handle is exported with: its own, or handle-<id> when it has none. No two
+/// handles of a state share one (EditEngine checks), so that the handle file it makes reads
+/// back.
+std::string handleName(const EditHandle& h);
 
 struct EditState {
   std::vector<EditHandle> handles;
@@ -190,11 +195,11 @@ class EditEngine {
   const EditState& state() const { return state_; }
   /// Checks a state against the mesh: handle ids unique and below nextId, vertex ids in range,
   /// referenced and in one handle only, targets |vertices| x 3 and finite and within 1000
-  /// bounding-box diagonals of the mesh, r_j in (0, 1e6], m_j in [0, 1], parameters in their
-  /// ranges (t in [1e-12, 1e6], steps in [1, 1e5], beta in [0, 1], iterations in [1, 100000],
-  /// tolerance in [0, 1], sigma in [1e-12, 1e6], history in [1, 100]; given weights n values
-  /// in [0, 1], or none).
-  /// \throw InvalidParameter naming the handle, vertex or parameter at fault.
+  /// bounding-box diagonals of the mesh, r_j in [1e-6, 1e6], m_j in [0, 1], names unique,
+  /// parameters in their ranges (t in [1e-12, 1e6], steps in [1, 1e5], beta in [0, 1], iterations
+  /// in [1, 100000], tolerance in [0, 1], sigma in [1e-12, 1e6], history in [1, 100]; given weights
+  /// n values in [0, 1], or none). \throw InvalidParameter naming the handle, vertex or parameter
+  /// at fault.
   void validate(const EditState& state) const;
   /// Validates and records the wanted state; the results follow at the next update().
   /// \throw InvalidParameter as validate(); the session is then unchanged.

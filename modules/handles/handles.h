@@ -61,7 +61,7 @@ std::vector<PickedPoint> readPickedPoints(const std::string& path);
 /// targets. Relative .pp paths are resolved against the handle file's directory.
 /// \throw IoError unreadable handle or .pp file. \throw InvalidParameter malformed JSON or
 ///        .pp, unknown keys, vertex ids out of range, empty handle, a vertex in two handles,
-///        range outside (0, 1e6], magnitude outside [0, 1], a target that is not finite or
+///        range outside [1e-6, 1e6], magnitude outside [0, 1], a target that is not finite or
 ///        more than 1000 mesh diagonals away, a .pp without active points, a picked name not
 ///        found (each naming the file, the handle and the field). Files are read through
 ///        readFileLimited (16 MiB, regular files only).

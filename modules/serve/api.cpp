@@ -650,7 +650,7 @@ std::string Api::stateJson(bool coalesced, int created) const {
   json handles = json::array();
   for (const EditHandle& h : s.state().handles)
     handles.push_back({{"id", h.id},
-                       {"name", h.name.empty() ? "handle-" + std::to_string(h.id) : h.name},
+                       {"name", handleName(h)},
                        {"vertices", h.vertices},
                        {"targets", matrixRows(h.targets)},
                        {"range", h.range},

@@ -20,16 +20,17 @@
 //                            "regularization": "none"|"uniform"|"nonuniform", "beta": [0, 1],
 //                            "scheme": "diffusion"|"rbf", "order": "first"|"second"|
 //                            "implicit_euler", "t": [1e-12, 1e6], "unit": "absolute"|"diagonal"|
-//                            "mean_edge2", "steps": [1, 1e5], "iterations": [1, 1e5]
-//                            (per update), "tolerance": [0, 1] (stationarity), "local_step":
-//                            "exact"|"reference", "acceleration": "lbfgs"|"anderson"|"none",
-//                            "sigma": [1e-12, 1e6], "rbf_distance":
+//                            "mean_edge2", "steps": [1, 1e5], "solve": "pcg"|"direct",
+//                            "iterations": [1, 1e5] (per update), "seconds": [0, 3600] (per
+//                            update, 0: no limit), "tolerance": [0, 1] (stationarity),
+//                            "local_step": "exact"|"reference", "acceleration":
+//                            "lbfgs"|"anderson"|"none", "sigma": [1e-12, 1e6], "rbf_distance":
 //                            "euclidean"|"geodesic", "reference": bool, "continue_drags": bool
 //                            (EditParams::continueDrags)}
-//   POST   /api/handles      add a handle {"vertices": [ids], "name"?, "range"? (0, 1e6],
-//                            "magnitude"? [0, 1], "targets"? [[x, y, z], ...]}; targets default
-//                            to the vertices' current (deformed) positions. The state document
-//                            then has "created": the new handle's id.
+//   POST   /api/handles      add a handle {"vertices": [ids], "name"? (unique), "range"? [1e-6,
+//                            1e6], "magnitude"? [0, 1], "targets"? [[x, y, z], ...]}; targets
+//                            default to the vertices' current (deformed) positions. The state
+//                            document then has "created": the new handle's id.
 //   PATCH  /api/handles/ID   change one handle: {"add_vertices": [ids] (at their current
 //                            positions), "move_to": [x, y, z] (translates the targets so that
 //                            their centroid is there; absolute, so repeating it is harmless),

@@ -38,14 +38,16 @@ void DiffusionCore::setHandles(const std::vector<std::vector<int>>& vertexSets,
     if (!(ranges[j] >= kMinHandleRange && ranges[j] <= kMaxHandleRange))
       throw InvalidParameter(h + ": range must be in [1e-6, 1e6] (got " + numberText(ranges[j]) +
                              ")");
-    if (!(magnitudes[j] >= 0.0) || !std::isfinite(magnitudes[j]))
-      throw InvalidParameter(h + ": magnitude must be >= 0 (got " +
-                             std::to_string(magnitudes[j]) + ")");
+    if (!(magnitudes[j] >= 0.0 && magnitudes[j] <= 1.0))
+      throw InvalidParameter(h + ": magnitude must be in [0, 1] (got " + numberText(magnitudes[j]) +
+                             ")");
     for (int v : vertexSets[j]) {
       if (v < 0 || v >= n)
         throw InvalidParameter(h + ": vertex " + std::to_string(v) + " out of range [0, " +
                                std::to_string(n) + ")");
-      if (seen[v] >= 0 && seen[v] != static_cast<int>(j))
+      if (seen[v] == static_cast<int>(j))
+        throw InvalidParameter(h + ": vertex " + std::to_string(v) + " is listed twice");
+      if (seen[v] >= 0)
         throw InvalidParameter(h + ": vertex " + std::to_string(v) + " is also in handle " +
                                std::to_string(seen[v]));
       seen[v] = static_cast<int>(j);
@@ -72,9 +74,9 @@ void DiffusionCore::setHandles(const HandleSet& handles) {
 void DiffusionCore::setMagnitude(int handle, double m) {
   if (handle < 0 || handle >= static_cast<int>(sets_.size()))
     throw InvalidParameter("weights: no handle " + std::to_string(handle));
-  if (!(m >= 0.0) || !std::isfinite(m))
+  if (!(m >= 0.0 && m <= 1.0))
     throw InvalidParameter("weights: handle " + std::to_string(handle) +
-                           ": magnitude must be >= 0");
+                           ": magnitude must be in [0, 1] (got " + numberText(m) + ")");
   magnitudes_[handle] = m;  // right-hand side only (pcg: superposition, see solve())
 }
 

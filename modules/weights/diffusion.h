@@ -124,8 +124,9 @@ class DiffusionWeights {
   DiffusionWeights(DiffusionWeights&&) noexcept;
   DiffusionWeights& operator=(DiffusionWeights&&) noexcept;
 
-  /// Handle vertex sets with their ranges r_j > 0 and magnitudes m_j >= 0.
-  /// \throw InvalidParameter for an empty set, an out-of-range id, r <= 0 or m < 0.
+  /// Handle vertex sets with their ranges r_j in [1e-6, 1e6] and magnitudes m_j in [0, 1].
+  /// \throw InvalidParameter for an empty set, an out-of-range id, a vertex listed twice or in
+  /// two sets, or r_j or m_j outside its interval (also for setRange and setMagnitude).
   void setHandles(const std::vector<std::vector<int>>& vertexSets,
                   const std::vector<double>& ranges, const std::vector<double>& magnitudes);
   void setHandles(const HandleSet& handles);

@@ -271,7 +271,8 @@ void bindDiffusionWeights(py::module_& m) {
       .def("set_handles", &PyDiffusionWeights::setHandles, py::arg("handles"),
            py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
            "set_handles(handles, ranges=None, magnitudes=None)\n\nHandle vertex sets (a list "
-           "of vertex-id arrays) with ranges r_j > 0 and magnitudes m_j >= 0 (default 1).")
+           "of vertex-id arrays) with ranges r_j in [1e-6, 1e6] and magnitudes m_j in [0, 1] "
+           "(default 1).")
       .def("set_range", &PyDiffusionWeights::setRange, py::arg("handle"), py::arg("r"),
            "set_range(handle, r)\n\nThe range r_j of handle j (0-based).")
       .def("set_magnitude", &PyDiffusionWeights::setMagnitude, py::arg("handle"), py::arg("m"),
