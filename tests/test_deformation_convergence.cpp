@@ -268,7 +268,9 @@ TEST_CASE("with uniform beta = 1 every element is held only by its neighbours, a
     o.maxIterations = 1;
     const double scale = deform(*b.disc, o, b.handles, b.targets).energies.front();
     INFO(toString(kind) << ": " << r.iterations << " iterations");
-    REQUIRE(r.energies.size() >= 2);
+    // The planar bar's ASAP initial guess and the tet bar's first global step are already at
+    // zero to rounding: the run ends there.
+    REQUIRE(r.energies.size() >= (kind == MeshKind::Surface ? 2 : 1));
     CHECK(r.positions.allFinite());
     for (size_t i = 1; i < r.energies.size(); ++i)
       CHECK(r.energies[i] <= r.energies[i - 1] * (1 + 1e-12) + 1e-18 * scale);

@@ -221,9 +221,32 @@ double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X
   return E;
 }
 
+namespace {
+
+// A plain step (global, then local) is a descent in exact arithmetic: one that ends above the
+// current energy gains less than rounding. The run then ends at the current iterate, converged,
+// and reports no new iteration. So does a run whose energy is rounding alone (roundingLevel).
+void settleAtRounding(DeformationResult& result) {
+  result.criterion = 0.0;
+  result.converged = true;
+}
+
+// The energy per element below which a shape is exact to rounding: residuals F_k - T_k of
+// about 1e-12, where F_k is about 1 in the units of ResidualModel::energyScale (the mesh scaled
+// to unit mean edge length). A shape whose handles rest lands at 1e-30 to 1e-29 per element;
+// a relative criterion there compares rounding with rounding and runs to the cap.
+constexpr double kRoundingEnergyPerElement = 1e-24;
+
+}  // namespace
+
+bool DeformationCore::roundingLevel(double E) const {
+  return E <= kRoundingEnergyPerElement * disc_.numElements();
+}
+
 void DeformationCore::iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X,
                                        double E, DeformationResult& result) {
   while (result.iterations < maxIterations) {
+    if (roundingLevel(E)) return settleAtRounding(result);
     const auto began = std::chrono::steady_clock::now();
     X = system_.solve(t_, targets_);
     const double previous = E;
@@ -240,18 +263,6 @@ void DeformationCore::iterateReference(int maxIterations, double tolerance, Eige
   }
 }
 
-namespace {
-
-// A plain step (global, then local) is a descent in exact arithmetic: one that ends above the
-// current energy gains less than rounding. The run then ends at the current iterate, converged,
-// and reports no new iteration.
-void settleAtRounding(DeformationResult& result) {
-  result.criterion = 0.0;
-  result.converged = true;
-}
-
-}  // namespace
-
 void DeformationCore::descend(int maxIterations, double tolerance, Eigen::MatrixXd& X, double E,
                               DeformationResult& result) {
   AndersonMixer& mixer = anderson_;
@@ -260,6 +271,7 @@ void DeformationCore::descend(int maxIterations, double tolerance, Eigen::Matrix
   Stacked mixedT;
   Eigen::MatrixXd mixed;
   while (result.iterations < maxIterations) {
+    if (roundingLevel(E)) return settleAtRounding(result);
     const auto began = std::chrono::steady_clock::now();
     // The plain step: the global step for the current targets, then the local step. Both are
     // exact minimizers, so its energy is at most E; how much lower is the criterion.
@@ -354,6 +366,7 @@ void DeformationCore::descendLbfgs(int maxIterations, double tolerance, Eigen::M
     if (result.converged) return;
   }
   while (result.iterations < maxIterations) {
+    if (roundingLevel(E)) return settleAtRounding(result);
     const auto began = std::chrono::steady_clock::now();
     Eigen::MatrixXd d = history.direction(g, initial);
     double slope = scale * d.cwiseProduct(g).sum();
@@ -436,12 +449,16 @@ void DeformationCore::runSteps(int maxIterations, double relTolerance,
       anderson_ = AndersonMixer(std::max(1, options_.history));
       E = start(initial, X, result);
     }
-    if (options_.localStep == LocalStep::Reference)
+    if (roundingLevel(E)) {  // e.g. every handle at rest: the first global step is exact
+      system_.factorize();   // as for any run after new handles (Fig. 5's counts hold)
+      settleAtRounding(result);
+    } else if (options_.localStep == LocalStep::Reference) {
       iterateReference(maxIterations, relTolerance, X, E, result);
-    else if (options_.acceleration == Acceleration::Lbfgs)
+    } else if (options_.acceleration == Acceleration::Lbfgs) {
       descendLbfgs(maxIterations, relTolerance, X, E, result);
-    else
+    } else {
       descend(maxIterations, relTolerance, X, E, result);
+    }
     lastX_ = X;
     lastE_ = result.energies.back();
     resumable_ = true;

@@ -81,6 +81,8 @@ class DeformationCore {
   double local(const Eigen::MatrixXd& X, const Stacked* previous, Stacked& t,
                double reference = 0.0);
   void report(const DeformationResult& result) const;
+  // The energy E is rounding alone: the shape is exact, the run is over (deformer.cpp).
+  bool roundingLevel(double E) const;
   // The run's time budget would be overrun by one more iteration as long as the one that began
   // at `iterationBegan` (setTimeBudget; never without one).
   bool outOfTime(std::chrono::steady_clock::time_point iterationBegan) const;
