@@ -269,6 +269,39 @@ TEST_CASE("edit engine: refine continues an unconverged deformation until it con
   CHECK((s.positions() - once.positions()).cwiseAbs().maxCoeff() < 1e-9);
 }
 
+TEST_CASE("edit engine: a new iteration cap or tolerance keeps the shape", "[engine]") {
+  EditEngine s(shipped("bar.obj"));
+  EditState state = s.state();
+  state.handles.push_back(handle(s, state, {0, 33, 66, 99, 132}));
+  state.handles.push_back(handle(s, state, {32, 65, 98, 131, 164}));
+  state.handles[1].targets.col(1).array() += 1.0;
+  state.params.iterations = kDefaultIterations;
+  s.setState(state);
+  REQUIRE(s.update().converged);
+  const Eigen::MatrixXd converged = s.positions();
+  const double energy = s.metrics().energy;
+
+  // A smaller cap, a looser tolerance: still converged, nothing solved.
+  state = s.state();
+  state.params.iterations = 7;
+  state.params.tolerance = 1e-5;
+  s.setState(state);
+  UpdateReport u = s.update();
+  CHECK(u.converged);
+  CHECK(u.deformation.solves + u.reference.solves == 0);
+  CHECK(s.positions() == converged);
+
+  // A tighter tolerance continues from the converged shape, within the small cap: lower
+  // energy, not a restart from the rest shape (7 iterations from rest end far above).
+  state = s.state();
+  state.params.tolerance = 1e-12;
+  s.setState(state);
+  u = s.update();
+  CHECK(u.initialGuess == "continued");
+  CHECK(s.metrics().energy <= energy);
+  CHECK((s.positions() - converged).cwiseAbs().maxCoeff() < 1e-3);
+}
+
 TEST_CASE("edit engine: updates within a time budget answer unconverged, refine() reaches the "
           "shape of one run, and metrics say when the energy is not relaxed",
           "[engine]") {

@@ -72,11 +72,13 @@ struct TrackedDeformation {
   std::optional<EditState> synced;  // the state it was last brought in line with
   Eigen::MatrixXd positions;        // n x d, its last result
   bool converged = true;
+  double criterion = 0.0;   // its last run's stopping criterion
   long weightsSerial = -1;  // the weights its regularization was set from
   void reset() {
     session.reset();
     synced.reset();
     converged = true;
+    criterion = 0.0;
   }
 };
 
@@ -152,9 +154,10 @@ bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, con
     session.setTargets(wanted.allTargets());
     dirty = true;
   }
+  bool budget = false;
   if (!fresh) {
     const EditParams& q = had->params;
-    const bool budget = q.iterations != p.iterations || q.tolerance != p.tolerance;
+    budget = q.iterations != p.iterations || q.tolerance != p.tolerance;
     const bool regChanged =
         regularized && (q.regularization != p.regularization ||
                         (p.regularization == Regularization::Uniform && q.beta != p.beta) ||
@@ -166,13 +169,15 @@ bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, con
           p.regularization == Regularization::Nonuniform ? weights : Eigen::VectorXd());
       tracked.weightsSerial = weightsSerial;
     }
-    if (regChanged || budget) {
+    if (regChanged) {
       drag = false;
       dirty = true;
     }
   }
-  // Refining: the last run stopped at its iteration budget; continue from its shape.
-  const bool refining = refine && !dirty && !tracked.converged;
+  // Refining: the last run stopped at its iteration budget, or a new cap or tolerance finds it
+  // short of converged; continue from its shape. A new budget alone keeps the shape.
+  const bool converged = tracked.converged && tracked.criterion <= p.tolerance;
+  const bool refining = (refine || budget) && !dirty && !converged;
   const bool solve = dirty || refining;
   if (solve) {
     session.setTimeBudget(seconds);
@@ -181,6 +186,7 @@ bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, con
                       : session.solve(p.iterations, p.tolerance);
     tracked.positions = result.positions;
     tracked.converged = result.converged;
+    tracked.criterion = result.criterion;
   }
   tracked.synced = want;
   work = session.stats() - before;
