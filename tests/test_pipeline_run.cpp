@@ -323,6 +323,24 @@ TEST_CASE("Document::load reads the mesh, the handles and the rest positions") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("A Document built in code without its rest positions is told so", "[pipeline]") {
+  Document doc;
+  doc.mesh = makeRectangle(2.0, 1.0, 4, 2);
+  doc.handles = HandleSet{};
+  Handle h;
+  h.name = "a";
+  h.vertices = {0};
+  h.targets = doc.mesh.positions().topRows(1);
+  doc.handles.handles.push_back(h);
+  Pipeline pipeline;
+  pipeline.add("deform");
+  CHECK_THROWS_WITH(pipeline.run(doc),
+                    Catch::Contains("'rest' holds 0 positions for the mesh's " +
+                                    std::to_string(doc.mesh.numVertices()) + " vertices"));
+  doc.rest = doc.mesh.positions();
+  CHECK_NOTHROW(pipeline.run(doc));
+}
+
 TEST_CASE("Document::restDiscretization is built once per rest shape", "[pipeline]") {
   Document doc;
   doc.mesh = makeRectangle(2.0, 1.0, 4, 2);

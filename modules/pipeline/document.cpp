@@ -21,6 +21,11 @@ std::string Document::missingHandles(const std::string& filter) const {
 }
 
 const Discretization& Document::restDiscretization() const {
+  if (rest.rows() != mesh.numVertices())
+    throw InvalidParameter("document: 'rest' holds " + std::to_string(rest.rows()) +
+                           " positions for the mesh's " + std::to_string(mesh.numVertices()) +
+                           " vertices (Document::load sets it; a Document built in code needs "
+                           "rest = the mesh's rest positions, e.g. mesh.positions())");
   const RestCache* c = restCache_.get();
   const bool valid = c && c->kind == mesh.kind() && c->rest.rows() == rest.rows() &&
                      c->rest.cols() == rest.cols() && c->rest == rest &&

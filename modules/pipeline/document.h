@@ -48,7 +48,7 @@ struct Document {
 
   /// The discretization of the rest shape (`rest`, the mesh's elements and kind): built on the
   /// first call and again only when one of those has changed since, so that the filters of a
-  /// pipeline share it.
+  /// pipeline share it. \throw InvalidParameter when `rest` does not hold one row per vertex.
   const Discretization& restDiscretization() const;
 
   /// The edit engine of the rest shape (one-shot settings: EngineSettings::interactive off),

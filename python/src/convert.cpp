@@ -175,12 +175,16 @@ HandleSet toHandles(const Mesh& mesh, const py::handle& handles, const py::handl
   if (!isSequence(handles))
     throw InvalidParameter("handles: expected a list of vertex-id arrays, one per handle");
   const py::sequence list = py::reinterpret_borrow<py::sequence>(handles);
+  if (list.size() == 0)
+    throw InvalidParameter("handles: the list is empty (give at least one vertex-id array)");
   for (const py::handle item : list)
     if (PyIndex_Check(item.ptr()) && !py::isinstance<py::array>(item))
       throw InvalidParameter(
           "handles: expected a list of vertex-id arrays, one per handle, got a list of numbers "
           "(for one handle write [ids])");
   const Eigen::MatrixXd rest = mesh.positions();
+  // Targets of 2 coordinates are a planar mesh's (its z stays); a 3D mesh needs 3.
+  const bool planar = mesh.kind() == MeshKind::Planar;
   HandleSet set;
   std::size_t total = 0;
   for (std::size_t j = 0; j < list.size(); ++j) {
@@ -224,13 +228,13 @@ HandleSet toHandles(const Mesh& mesh, const py::handle& handles, const py::handl
       Handle& h = set.handles[j];
       const std::string what = "targets[" + std::to_string(j) + "]";
       const py::array a = asArray(t[j], what, false);
-      const Eigen::Index cols = a.ndim() == 2 && a.shape(1) == 2 ? 2 : 3;
+      const Eigen::Index cols = planar && a.ndim() == 2 && a.shape(1) == 2 ? 2 : 3;
       fill(h, toMatrix(a, what.c_str(), h.targets.rows(), cols), 0);
     }
     return set;
   }
   const py::array a = asArray(targets, "targets", false);
-  const Eigen::Index cols = a.ndim() == 2 && a.shape(1) == 2 ? 2 : 3;
+  const Eigen::Index cols = planar && a.ndim() == 2 && a.shape(1) == 2 ? 2 : 3;
   const Eigen::MatrixXd t = toMatrix(a, "targets", static_cast<Eigen::Index>(total), cols);
   Eigen::Index row = 0;
   for (Handle& h : set.handles) {

@@ -68,6 +68,11 @@ py::tuple deformArrays(const py::object& V, const py::object& E, const py::objec
     throw InvalidParameter(
         "deform: regularization nonuniform needs weights (one per vertex, e.g. from "
         "diffuse_weights or rbf_weights)");
+  if (regularization != "nonuniform" && !weights.is_none())
+    throw InvalidParameter(
+        "deform: weights are used by regularization='nonuniform' only (got " +
+        (regularization.empty() ? std::string("the default, 'none'") : "'" + regularization + "'") +
+        ")");
   py::dict info = applyFilter(doc, "deform", kwargs);
   return py::make_tuple(fromMatrix(doc.mesh.positions()), info);
 }

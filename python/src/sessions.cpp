@@ -135,6 +135,9 @@ class PyDeformationSession {
       if (weights.is_none())
         throw InvalidParameter("DeformationSession: regularization nonuniform needs weights");
       options.weights = toVector(weights, "weights", shape_->mesh.numVertices());
+    } else if (!weights.is_none()) {
+      throw InvalidParameter(
+          "DeformationSession: weights are used by regularization='nonuniform' only");
     }
     session_ = std::make_unique<DeformationSession>(shape_->disc, options);
   }

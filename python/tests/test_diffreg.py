@@ -286,6 +286,19 @@ def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
         diffreg.run((V, E), ["deform"])
     with pytest.raises(ValueError):
         diffreg.deform(V, E, [[0], [0]], None)
+    # Weights without the regularization that uses them, 2-coordinate targets on a surface and
+    # an empty handle list are refused, not ignored or completed.
+    with pytest.raises(ValueError, match="weights are used by regularization='nonuniform' only"):
+        diffreg.deform(V, E, [[0], [2]], None, weights=np.ones(4))
+    with pytest.raises(ValueError, match="weights are used by regularization='nonuniform' only"):
+        diffreg.DeformationSession(V, E, weights=np.ones(4))
+    with pytest.raises(ValueError, match="the list is empty"):
+        diffreg.diffuse_weights(V, E, [])
+    with pytest.raises(ValueError, match="the list is empty"):
+        diffreg.deform(V, E, [], [])
+    Vs, Es = diffreg.read_mesh(mesh("cylinder.obj"))
+    with pytest.raises(ValueError, match=r"targets\[0\]: expected shape \(1, 3\)"):
+        diffreg.deform(Vs, Es, [[0], [5]], [Vs[[0], :2], Vs[[5], :2]])
 
 
 # ---- sessions (paper Fig. 5) ----------------------------------------------------------------------
