@@ -269,6 +269,18 @@ TEST_CASE("edit engine: refine continues an unconverged deformation until it con
   CHECK((s.positions() - once.positions()).cwiseAbs().maxCoeff() < 1e-9);
 }
 
+TEST_CASE("edit engine: an update at the default parameters is converged", "[engine]") {
+  // The twisted cylinder takes more iterations than the editor's per-update cap.
+  const Mesh mesh = shipped("cylinder.obj");
+  EditEngine s(mesh);
+  s.setHandles(readHandles(std::string(DIFFREG_SOURCE_DIR) + "/meshes/cylinder-twist.json", mesh));
+  const UpdateReport u = s.update();
+  REQUIRE(u.solved);
+  CHECK(u.converged);
+  CHECK(u.criterion <= kDefaultTolerance);
+  CHECK(u.iterations > kEditorIterations);
+}
+
 TEST_CASE("edit engine: a new iteration cap or tolerance keeps the shape", "[engine]") {
   EditEngine s(shipped("bar.obj"));
   EditState state = s.state();

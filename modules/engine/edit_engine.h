@@ -64,6 +64,9 @@ struct RbfSettings {
 /// maps; a new factorization or weights solve, and relaxing the energy of a shape that has just
 /// converged, come on top), and the shape is refined while idle.
 constexpr double kEditorSeconds = 0.25;
+/// The editor's iterations per update (EditParams::iterations as `diffreg serve` sets it): with
+/// kEditorSeconds, what one update may take before the idle refinement continues.
+constexpr int kEditorIterations = 50;
 
 /// Everything about an edit that is not a handle.
 struct EditParams {
@@ -80,9 +83,10 @@ struct EditParams {
   bool deform = true;
   /// Also compute the Table-1 metrics with the maps (off: metrics() keeps zeros).
   bool metrics = true;
-  /// Local/global iterations per update (ARAP; ASAP on surfaces and solids). A run that stops
-  /// here unconverged continues with refine() while the editor is idle.
-  int iterations = 50;
+  /// Local/global iterations per update (ARAP; ASAP on surfaces and solids): a cap, as the deform
+  /// filter's (converged runs stay below it). A run that stops here unconverged reports so
+  /// (UpdateReport::converged) and continues with refine(); the editor sets kEditorIterations.
+  int iterations = kDefaultIterations;
   /// Seconds the deformation of each update (and refine()) may take
   /// (DeformationSession::setTimeBudget: its start, e.g. a factorization, included, and one
   /// iteration at least); the reference gets what the deformation leaves of them, one

@@ -38,6 +38,7 @@ void prepareEditor(Editor& e, const Mesh& mesh, const EditorPair& p, double seco
       Handle{"pulled", p.moved, T.bottomRows(static_cast<Eigen::Index>(p.moved.size()))}};
   EditParams params = e.engine->state().params;
   params.seconds = seconds;
+  params.iterations = kEditorIterations;
   e.engine->setEdit(handles, params);
   e.state = e.engine->state();
   e.engine->update();

@@ -101,6 +101,7 @@ int runServe(int argc, char** argv) {
   {  // the editor answers within its time budget and refines while idle
     EditState editor = session->state();
     editor.params.seconds = kEditorSeconds;
+    editor.params.iterations = kEditorIterations;
     session->setState(std::move(editor));
   }
   Api api(std::move(session), std::filesystem::path(input).filename().string());
