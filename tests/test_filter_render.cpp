@@ -206,7 +206,7 @@ TEST_CASE("render: smoothness with wireframe, no property, and a tet mesh by its
   t.colormap = Colormap::Turbo;
   t.colorBarLabel = "distortion";
   t.handles = tet.handles.allVertices();
-  t.upAxis = 2;  // up=auto: the handles move along z
+  t.upAxis = 0;  // up=auto: the bar's longest side, x (its handles move along z)
   CHECK(sameImage(image, renderMesh(tet.mesh, t)));
   const PixelRect vp = renderLayout(tet.mesh, t).viewport;
   int painted = 0;

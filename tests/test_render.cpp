@@ -44,6 +44,16 @@ Rgb pixelAt(const Image& image, const Eigen::Vector3d& projected) {
 
 }  // namespace
 
+TEST_CASE("3D views stand a shape on its longest side unless told otherwise", "[render]") {
+  // A figure taller than wide stays upright whatever its handles do (compare, resolution and
+  // render's up=auto all use this axis).
+  const Eigen::AlignedBox3d standing(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.5, 0.9, 0.3));
+  CHECK(uprightAxis(standing) == 1);
+  const Eigen::AlignedBox3d part(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.3, 0.5, 1.0));
+  CHECK(uprightAxis(part) == 2);
+  CHECK(uprightAxis(Eigen::AlignedBox3d()) == 1);  // nothing to frame: y
+}
+
 TEST_CASE("writePng writes a PNG that decodes to the same pixels") {
   TempDir dir;
   Image image(37, 21, {10, 20, 30});

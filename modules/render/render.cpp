@@ -608,6 +608,13 @@ Eigen::AlignedBox3d meshBounds(const Mesh& mesh) {
   return box;
 }
 
+int uprightAxis(const Eigen::AlignedBox3d& frame) {
+  if (frame.isEmpty()) return 1;
+  Eigen::Index axis = 1;
+  frame.sizes().maxCoeff(&axis);
+  return static_cast<int>(axis);
+}
+
 Image renderMesh(const Mesh& mesh, const RenderOptions& options) {
   const Field field = resolveField(mesh, options);
   const RenderLayout layout = layoutFor(options, field);

@@ -48,24 +48,6 @@ void checkOutput(const std::string& file) {
                   "' is not writable");
 }
 
-/// The world axis drawn vertically in 3D views for up=auto: the axis along which the handles
-/// move most, or the longest axis of the shape when they do not move (as diffreg compare).
-int autoUpAxis(const Document& doc) {
-  Eigen::Vector3d motion = Eigen::Vector3d::Zero();
-  for (const Handle& h : doc.handles.handles)
-    for (int i = 0; i < h.targets.rows(); ++i)
-      if (h.vertices[i] >= 0 && h.vertices[i] < doc.rest.rows())
-        motion += (h.targets.row(i) - doc.rest.row(h.vertices[i])).cwiseAbs().transpose();
-  const Eigen::AlignedBox3d box = meshBounds(doc.mesh);
-  const double size = box.isEmpty() ? 0.0 : box.diagonal().norm();
-  Eigen::Index axis = 1;
-  if (motion.maxCoeff() > 1e-12 * size)
-    motion.maxCoeff(&axis);
-  else if (!box.isEmpty())
-    box.sizes().maxCoeff(&axis);
-  return static_cast<int>(axis);
-}
-
 }  // namespace
 
 std::string RenderFilter::description() const {
@@ -105,8 +87,7 @@ std::vector<ParamSpec> RenderFilter::params() const {
       floatParam("pitch", "-20", -90.0, 90.0,
                  "Orbit view: degrees of elevation; negative looks down on the mesh."),
       enumParam("up", "auto", {"auto", "x", "y", "z"},
-                "Orbit view: the world axis shown vertical; auto = the axis along which the "
-                "handles move most (the longest axis of the shape when they do not move)."),
+                "Orbit view: the world axis shown vertical; auto = the shape's longest side."),
       stringParam("title", "", "Text above the picture (none when empty)."),
   };
 }
@@ -156,7 +137,10 @@ FilterResult RenderFilter::apply(Document& doc, const ParamMap& params) const {
   options.yaw = params.getFloat("yaw");
   options.pitch = params.getFloat("pitch");
   const std::string up = params.getString("up");
-  options.upAxis = up == "x" ? 0 : up == "y" ? 1 : up == "z" ? 2 : autoUpAxis(doc);
+  options.upAxis = up == "x"   ? 0
+                   : up == "y" ? 1
+                   : up == "z" ? 2
+                               : uprightAxis(meshBounds(doc.mesh));
   options.title = params.getString("title");
 
   const Image image = renderMesh(mesh, options);

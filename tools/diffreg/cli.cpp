@@ -112,6 +112,12 @@ void parseSize(const std::string& command, const std::string& size, int& width, 
     throw UsageError(command + ": --size '" + size + "' is not WxH with 100 <= W, H <= 4000");
 }
 
+int parseUp(const std::string& command, const std::string& up) {
+  if (up == "auto") return -1;
+  if (up == "x" || up == "y" || up == "z") return up[0] - 'x';
+  throw UsageError(command + ": --up '" + up + "' is not one of auto, x, y, z");
+}
+
 std::string canonicalTarget(const std::string& path) {
   std::error_code ec;
   const fs::path p = fs::weakly_canonical(fs::absolute(path), ec);

@@ -57,6 +57,10 @@ std::string fixed(double value, int digits);
 /// \throw UsageError unless both are whole numbers in [100, 4000].
 void parseSize(const std::string& command, const std::string& size, int& width, int& height);
 
+/// `command`'s --up: "x", "y" or "z" as 0, 1, 2; "auto" as -1 (uprightAxis of the frame).
+/// \throw UsageError for anything else.
+int parseUp(const std::string& command, const std::string& up);
+
 /// `path` as an absolute path with symbolic links, "." and ".." resolved (as far as it
 /// exists): two spellings of one file give the same string.
 std::string canonicalTarget(const std::string& path);

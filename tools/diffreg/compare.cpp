@@ -26,7 +26,8 @@ const char* kCompareUsage =
     "Usage: diffreg compare -i MESH --handles H.json [-o PICTURE.png] [--report R.json]\n"
     "                       [--markdown T.md] [--weights 'FILTER k=v ...'] [--deform 'deform k=v "
     "...']\n"
-    "                       [--beta B] [--rbf ['rbf_weights k=v ...']] [--size WxH] [--quiet]\n"
+    "                       [--beta B] [--rbf ['rbf_weights k=v ...']] [--size WxH] [--up AXIS]\n"
+    "                       [--quiet]\n"
     "\n"
     "The same edit without regularization, with uniform regularization and with non-uniform\n"
     "regularization by the diffused weights (and by RBF weights with --rbf), as in the paper's\n"
@@ -77,7 +78,7 @@ std::string markdownTable(const std::vector<Variant>& variants) {
 
 /// Rest shape with the weights and handles, then every variant by distortion on one scale.
 Image comparePicture(const Document& rest, const Document& weighted,
-                     const std::vector<Variant>& variants, int width, int height) {
+                     const std::vector<Variant>& variants, int width, int height, int up) {
   Eigen::AlignedBox3d frame = meshBounds(rest.mesh);
   double top = 0.0;
   for (const Variant& v : variants) {
@@ -90,20 +91,7 @@ Image comparePicture(const Document& rest, const Document& weighted,
   base.frame = frame;
   base.handles = rest.handles.allVertices();
   base.reserveColorBar = true;
-  if (rest.mesh.kind() != MeshKind::Planar) {
-    // The handles' motion shows best in the picture plane: the vertical is the axis along which
-    // the handles move most (the longest axis of the shape when they do not move).
-    Eigen::Vector3d motion = Eigen::Vector3d::Zero();
-    for (const Handle& h : rest.handles.handles)
-      for (int i = 0; i < h.targets.rows(); ++i)
-        motion += (h.targets.row(i) - rest.rest.row(h.vertices[i])).cwiseAbs().transpose();
-    Eigen::Vector3d::Index axis;
-    if (motion.maxCoeff() > 1e-12 * frame.diagonal().norm())
-      motion.maxCoeff(&axis);
-    else
-      frame.sizes().maxCoeff(&axis);
-    base.upAxis = static_cast<int>(axis);
-  }
+  base.upAxis = up >= 0 ? up : uprightAxis(frame);  // 3D views only
 
   std::vector<Image> panels;
   RenderOptions weights = base;
@@ -147,6 +135,8 @@ po::options_description compareOptions() {
        "unless given: deform needs weights in [0, 1])")  //
       ("size", po::value<std::string>()->default_value("560x380"),
        "size of one panel of the picture, WxH pixels")  //
+      ("up", po::value<std::string>()->default_value("auto"),
+       "3D meshes: the axis drawn vertically, x, y, z or auto (the shape's longest side)")  //
       ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
   return visible;
 }
@@ -155,6 +145,7 @@ po::options_description compareOptions() {
 /// its variant is made, after the weights).
 struct CompareSettings {
   int width = 0, height = 0;
+  int up = -1;  ///< --up: 0, 1, 2, or -1 for auto
   Step weights, deform;
   std::optional<Step> rbf;     ///< --rbf: a fourth column
   std::optional<double> beta;  ///< --beta; else the peak of the weights
@@ -168,6 +159,7 @@ CompareSettings compareSettings(const po::variables_map& vm) {
   requireOption(vm, "handles", "compare", "--handles H.json");
   CompareSettings s;
   parseSize("compare", vm["size"].as<std::string>(), s.width, s.height);
+  s.up = parseUp("compare", vm["up"].as<std::string>());
   s.weights = parseStep(vm["weights"].as<std::string>(), "--weights");
   s.deform = parseStep(vm["deform"].as<std::string>(), "--deform");
   if (s.deform.filter != "deform")
@@ -294,7 +286,7 @@ int runCompare(int argc, char** argv) {
   writeTableOutputs(
       vm, s.outputs, markdownTable(variants),
       [&](const std::string& path) {
-        writePng(path, comparePicture(doc, weighted, variants, s.width, s.height));
+        writePng(path, comparePicture(doc, weighted, variants, s.width, s.height, s.up));
       },
       [&] { return compareReport(variants, beta, peak); });
   return 0;

@@ -29,7 +29,7 @@ namespace {
 const char* kResolutionUsage =
     "Usage: diffreg resolution -i MESH --handles H.json [-o PICTURE.png] [--levels 2] [--t 0.01]\n"
     "                          [--scheme midpoint|loop] [--probe V] [--report R.json]\n"
-    "                          [--markdown T.md] [--size WxH] [--quiet]\n"
+    "                          [--markdown T.md] [--size WxH] [--up AXIS] [--quiet]\n"
     "\n"
     "The paper's resolution experiment (Fig. 9): the mesh is refined 1-to-4 up to --levels\n"
     "times (the original vertices keep their ids; a handle region grows with its edges, a\n"
@@ -83,7 +83,7 @@ std::string markdownTable(const std::vector<Cell>& cells, const std::vector<Docu
 /// height = 0: each panel as high as the shape needs at `width` (at least 150 pixels), so that
 /// the mesh fills its panel.
 Image resolutionPicture(const std::vector<Cell>& cells, const std::vector<Document>& levels,
-                        double top, int width, int height) {
+                        double top, int width, int height, int up) {
   Eigen::AlignedBox3d frame = meshBounds(levels[0].mesh);
   for (const Document& d : levels) frame.extend(meshBounds(d.mesh));
   RenderOptions base;
@@ -96,11 +96,7 @@ Image resolutionPicture(const std::vector<Cell>& cells, const std::vector<Docume
   base.colormap = Colormap::Viridis;
   base.colorBarLabel = "weight";
   base.textScale = std::clamp(width / 260, 1, 4);
-  if (levels[0].mesh.kind() != MeshKind::Planar) {
-    Eigen::Vector3d::Index axis;
-    frame.sizes().maxCoeff(&axis);  // the longest side upright
-    base.upAxis = static_cast<int>(axis);
-  }
+  base.upAxis = up >= 0 ? up : uprightAxis(frame);  // 3D views only
   if (height == 0) {
     // The frame's extent in the view at a trial size gives the height at which the viewport
     // has the shape's aspect ratio.
@@ -143,6 +139,7 @@ struct ResolutionSettings {
   int levels = 2;
   double t = 0.01;              ///< squared level-0 bounding-box diagonals
   int width = 520, height = 0;  ///< height 0: as high as the shape needs
+  int up = -1;                  ///< --up: 0, 1, 2, or -1 for auto
   std::optional<int> probe;     ///< --probe, checked against the mesh once it is read
   std::vector<std::string> outputs;
 };
@@ -166,6 +163,8 @@ po::options_description resolutionOptions() {
       ("size", po::value<std::string>()->default_value("auto"),
        "size of one panel of the picture, WxH pixels; auto: 520 wide, as high as the shape "
        "needs")  //
+      ("up", po::value<std::string>()->default_value("auto"),
+       "3D meshes: the axis drawn vertically, x, y, z or auto (the shape's longest side)")  //
       ("quiet,q", po::bool_switch(), "no warnings or progress on stderr");
   return visible;
 }
@@ -190,6 +189,7 @@ ResolutionSettings resolutionSettings(const po::variables_map& vm) {
     throw UsageError("resolution: --scheme '" + s.scheme + "' is not one of midpoint, loop");
   if (vm["size"].as<std::string>() != "auto")
     parseSize("resolution", vm["size"].as<std::string>(), s.width, s.height);
+  s.up = parseUp("resolution", vm["up"].as<std::string>());
   s.outputs = checkTableOutputs(vm, "resolution");
   if (vm.count("probe")) s.probe = vm["probe"].as<int>();
   return s;
@@ -371,7 +371,7 @@ int runResolution(int argc, char** argv) {
   writeTableOutputs(
       vm, s.outputs, markdownTable(cells, levels, probe),
       [&](const std::string& path) {
-        writePng(path, resolutionPicture(cells, levels, top, s.width, s.height));
+        writePng(path, resolutionPicture(cells, levels, top, s.width, s.height, s.up));
       },
       [&] { return resolutionReport(s, scale, probe, free.size(), levels, cells); });
   return 0;
