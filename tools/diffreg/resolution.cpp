@@ -127,7 +127,8 @@ Image resolutionPicture(const std::vector<Cell>& cells, const std::vector<Docume
     o.values = c.weights;
     o.site = ScalarSite::Vertex;
     o.title = c.unit + ", level " + std::to_string(c.level) + " (" +
-              std::to_string(doc.mesh.numVertices()) + " v), t = " + shortNumber(c.tAbsolute);
+              std::to_string(doc.mesh.numVertices()) + " v), t = " + shortNumber(c.t) +
+              (c.unit == "absolute" ? "" : " (" + shortNumber(c.tAbsolute) + " length^2)");
     panels.push_back(renderMesh(doc.mesh, o));
   }
   return composeGrid(panels, static_cast<int>(levels.size()));
