@@ -133,11 +133,13 @@ int runPipeline(const po::variables_map& vm) {
   // Two spellings of one file (a.ply, ./a.ply, a link to it) are one output.
   std::vector<std::string> targets = outputs;
   if (!reportPath.empty()) targets.push_back(reportPath);
+  const auto option = [&](size_t i) { return i < outputs.size() ? "-o" : "--report"; };
   for (size_t i = 0; i < targets.size(); ++i) {
     checkWritableDir(targets[i]);
     for (size_t j = 0; j < i; ++j)
       if (canonicalTarget(targets[i]) == canonicalTarget(targets[j]))
-        throw UsageError("output '" + targets[i] + "' given twice (also as '" + targets[j] + "')");
+        throw UsageError("output '" + targets[i] + "' given twice (" + option(i) + ", also as " +
+                         option(j) + " '" + targets[j] + "')");
   }
 
   Timer phase;
