@@ -40,6 +40,14 @@ TEST_CASE("parseJsonStrictly refuses a NUL byte, which nlohmann reads as the end
   CHECK(errorOf(text) == "a NUL byte at offset 8");
 }
 
+TEST_CASE("parseJsonStrictly refuses \\u0000 in keys and strings, where messages would end",
+          "[core][json]") {
+  CHECK(errorOf(R"({"nam\u0000e": 1})") == "a string holds the character \\u0000 (NUL)");
+  CHECK(errorOf(R"({"energy": "arap\u0000x"})") == "a string holds the character \\u0000 (NUL)");
+  CHECK(errorOf(R"(["a", ["b\u0000"]])") == "a string holds the character \\u0000 (NUL)");
+  CHECK(parseJsonStrictly(R"({"a\u0001": "b\u00e9"})").size() == 1);  // other escapes stay
+}
+
 TEST_CASE("parseJsonStrictly's messages drop nlohmann's prefix", "[core][json]") {
   const std::string e = errorOf("{\"a\": }");
   CHECK(e.rfind("parse error at line 1, column 7", 0) == 0);

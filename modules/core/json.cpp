@@ -12,6 +12,10 @@ struct DuplicateKey {
   std::string key;
 };
 
+// A string or key holding the escape \u0000: names and messages end at it in C strings, so
+// it is refused as the raw NUL byte is.
+struct NulInString {};
+
 }  // namespace
 
 nlohmann::json parseJsonStrictly(const std::string& text) {
@@ -20,6 +24,9 @@ nlohmann::json parseJsonStrictly(const std::string& text) {
     throw std::invalid_argument("a NUL byte at offset " + std::to_string(nul));
   std::vector<std::set<std::string>> keys;  // those of each object being read
   const json::parser_callback_t seen = [&keys](int, json::parse_event_t event, json& value) {
+    if ((event == json::parse_event_t::key || event == json::parse_event_t::value) &&
+        value.is_string() && value.get_ref<const std::string&>().find('\0') != std::string::npos)
+      throw NulInString{};
     if (event == json::parse_event_t::object_start) {
       keys.emplace_back();
     } else if (event == json::parse_event_t::object_end) {
@@ -32,6 +39,8 @@ nlohmann::json parseJsonStrictly(const std::string& text) {
   };
   try {
     return json::parse(text, seen);
+  } catch (const NulInString&) {
+    throw std::invalid_argument("a string holds the character \\u0000 (NUL)");
   } catch (const DuplicateKey& d) {
     throw std::invalid_argument("key '" + d.key + "' twice in one object");
   } catch (const json::exception& e) {  // parse errors, numbers beyond double
