@@ -312,6 +312,23 @@ TEST_CASE("edit engine: a new iteration cap or tolerance keeps the shape", "[eng
   CHECK(u.initialGuess == "continued");
   CHECK(s.metrics().energy <= energy);
   CHECK((s.positions() - converged).cwiseAbs().maxCoeff() < 1e-3);
+
+  // A one-shot engine (the filters') solves every edit from the rest shape: a pipeline's second
+  // deform with another cap is a run of its own.
+  EngineSettings oneShot;
+  oneShot.interactive = false;
+  EditEngine filters(shipped("bar.obj"), oneShot);
+  state.params.tolerance = kDefaultTolerance;
+  state.params.iterations = kDefaultIterations;
+  filters.setState(state);
+  REQUIRE(filters.update().converged);
+  state.params.iterations = 3;
+  filters.setState(state);
+  u = filters.update();
+  CHECK(u.deformation.solves > 0);
+  CHECK(u.iterations <= 3);
+  CHECK_FALSE(u.converged);
+  CHECK(u.initialGuess != "continued");
 }
 
 TEST_CASE("edit engine: updates within a time budget answer unconverged, refine() reaches the "

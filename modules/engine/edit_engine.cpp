@@ -121,7 +121,8 @@ std::unique_ptr<DeformationSession> newSession(const SessionSetup& setup, const 
 /// step, acceleration or history, or when the regularization needs the facet couplings the
 /// session did not reserve; new handles, targets or regularization (`regularized`: the edit's own,
 /// from `weights`; otherwise none); then a solve, a continued drag (only targets moved, with
-/// continueDrags) or, when `refine` and nothing changed, a resumed unconverged run, each within
+/// continueDrags) or, when `refine` or (interactive engines) a new iteration cap or tolerance
+/// alone and the run is short of the tolerance, a resumed run, each within
 /// `seconds` (0: no limit). Returns whether it solved (then `result` holds the run) and the
 /// solver work in `work`.
 bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, const EditState& want,
@@ -169,7 +170,8 @@ bool syncDeformation(const SessionSetup& setup, TrackedDeformation& tracked, con
           p.regularization == Regularization::Nonuniform ? weights : Eigen::VectorXd());
       tracked.weightsSerial = weightsSerial;
     }
-    if (regChanged) {
+    // One-shot engines (the filters) solve every edit from the rest shape, whatever changed.
+    if (regChanged || (budget && !setup.settings.interactive)) {
       drag = false;
       dirty = true;
     }

@@ -102,7 +102,9 @@ struct EditParams {
   /// While only handle targets move (a drag), continue the iterations from the current shape
   /// (DeformationSession::solveFrom): a few iterations instead of a full solve, but the shape
   /// then depends on the path of the drag as long as the iterations have not converged. Off:
-  /// every update solves from the rest shape, as the diffreg tool does.
+  /// every update solves from the rest shape, as the diffreg tool does (in an interactive
+  /// engine a new iteration cap or tolerance alone keeps the shape: a run within the new
+  /// tolerance stays, one short of it continues).
   bool continueDrags = false;
   /// L-BFGS pairs, or earlier iterates Anderson combines (DeformationOptions::history).
   int history = 8;
