@@ -251,8 +251,8 @@ void EditEngine::validate(const EditState& s) const {
     if (h.id < 0 || h.id >= s.nextId)
       throw InvalidParameter(name + ": id must be in [0, " + std::to_string(s.nextId) + ")");
     if (!ids.insert(h.id).second) throw InvalidParameter(name + ": id used twice");
-    if (!names.insert(handleName(h)).second)
-      throw InvalidParameter(name + ": another handle is named '" + handleName(h) +
+    if (!h.name.empty() && !names.insert(h.name).second)
+      throw InvalidParameter(name + ": another handle is named '" + h.name +
                              "' (a handle file needs names of its own)");
     if (h.vertices.empty()) throw InvalidParameter(name + " selects no vertex");
     for (int v : h.vertices) {
@@ -646,15 +646,31 @@ EditParams editParamsOf(const DeformationOptions& options) {
 
 HandleSet EditEngine::handleSet() const { return toHandleSet(state_); }
 
-std::string handleName(const EditHandle& h) {
-  return h.name.empty() ? "handle-" + std::to_string(h.id) : h.name;
+std::vector<std::string> handleNames(const EditState& state) {
+  std::set<std::string> taken;
+  for (const EditHandle& h : state.handles)
+    if (!h.name.empty()) taken.insert(h.name);
+  std::vector<std::string> names;
+  for (const EditHandle& h : state.handles) {
+    if (!h.name.empty()) {
+      names.push_back(h.name);
+      continue;
+    }
+    const std::string base = "handle-" + std::to_string(h.id);
+    std::string name = base;
+    for (int k = 2; !taken.insert(name).second; ++k) name = base + "-" + std::to_string(k);
+    names.push_back(name);
+  }
+  return names;
 }
 
 HandleSet toHandleSet(const EditState& state) {
   HandleSet set;
-  for (const EditHandle& e : state.handles) {
+  const std::vector<std::string> names = handleNames(state);
+  for (size_t j = 0; j < state.handles.size(); ++j) {
+    const EditHandle& e = state.handles[j];
     Handle h;
-    h.name = handleName(e);
+    h.name = names[j];
     h.vertices = e.vertices;
     h.targets = e.targets;
     h.range = e.range;

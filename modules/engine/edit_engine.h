@@ -133,16 +133,16 @@ struct EditHandle {
   double magnitude = 1.0;   ///< m_j in [0, 1]
 };
 
-/// The name a handle is exported with: its own, or handle-<id> when it has none. No two
-/// handles of a state share one (EditEngine checks), so that the handle file it makes reads
-/// back.
-std::string handleName(const EditHandle& h);
-
 struct EditState {
   std::vector<EditHandle> handles;
   EditParams params;
   int nextId = 0;  ///< id of the next handle added
 };
+
+/// The names the handles of `state` are exported with: their own (EditEngine refuses two
+/// handles of one name), or handle-<id> for one without, with a suffix -2, -3, ... where a
+/// handle already has that name: the handle file of any state reads back.
+std::vector<std::string> handleNames(const EditState& state);
 
 /// What one update() did.
 struct UpdateReport {
@@ -178,7 +178,7 @@ struct UpdateReport {
 /// (options.weights), no reference, no metrics.
 EditParams editParamsOf(const DeformationOptions& options);
 
-/// The handles of a state as a HandleSet (unnamed handles are called handle-<id>).
+/// The handles of a state as a HandleSet (unnamed handles named by handleNames).
 HandleSet toHandleSet(const EditState& state);
 
 class EditEngine {

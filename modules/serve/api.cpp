@@ -648,13 +648,16 @@ bool Api::finish() {
 std::string Api::stateJson(bool coalesced, int created) const {
   const EditEngine& s = *session_;
   json handles = json::array();
-  for (const EditHandle& h : s.state().handles)
+  const std::vector<std::string> names = handleNames(s.state());
+  for (size_t j = 0; j < s.state().handles.size(); ++j) {
+    const EditHandle& h = s.state().handles[j];
     handles.push_back({{"id", h.id},
-                       {"name", handleName(h)},
+                       {"name", names[j]},
                        {"vertices", h.vertices},
                        {"targets", matrixRows(h.targets)},
                        {"range", h.range},
                        {"magnitude", h.magnitude}});
+  }
   const DeformationMetrics& m = s.metrics();
   const UpdateReport& u = s.lastUpdate();
   json doc = {{"version", s.version()},
