@@ -626,9 +626,7 @@ function wirePanel() {
   param('energy', (v) => ({ energy: v }));
   param('regularization', (v) => ({ regularization: v }));
   param('beta', (v) => { $('beta-out').textContent = Number(v).toFixed(2); return { beta: Number(v) }; });
-  param(
-      'iterations',
-      (v) => (v === '' || Number(v) < 1 ? null : {iterations: Math.round(Number(v))}));
+  param('iterations', (v) => (!(Number(v) >= 1) ? null : { iterations: Math.round(Number(v)) }));  // empty: no change
   param('seconds', (v) => (v === '' ? null : { seconds: Number(v) }));  // empty: no change
   $('reference').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { reference: $('reference').checked }));
   $('continue').addEventListener('change', () => edit('params', 'PATCH', '/api/params', { continue_drags: $('continue').checked }));

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 
 namespace diffreg {
@@ -231,16 +232,23 @@ void settleAtRounding(DeformationResult& result) {
   result.converged = true;
 }
 
-// The energy per element below which a shape is exact to rounding: residuals F_k - T_k of
-// about 1e-12, where F_k is about 1 in the units of ResidualModel::energyScale (the mesh scaled
-// to unit mean edge length). A shape whose handles rest lands at 1e-30 to 1e-29 per element;
-// a relative criterion there compares rounding with rounding and runs to the cap.
-constexpr double kRoundingEnergyPerElement = 1e-24;
+// How far above rounding an energy may be and still count as rounding alone (roundingLevel).
+constexpr double kRoundingMargin = 100.0;
 
 }  // namespace
 
+// Coordinates hold about eps times the mesh's diagonal, so in the units of
+// ResidualModel::energyScale (unit mean edge length) a gradient F_k of an exact shape is off by
+// about eps diagonal / ell and its element's energy by the square of that: a rest shape under
+// resting handles lands there (1e-30 to 1e-29 per element on the shipped bar, where the bound
+// below is about 4e-25). An energy within kRoundingMargin^2 of it is rounding alone: a relative
+// criterion would compare rounding with rounding and run to the cap. The bound sums over the
+// elements, so an edit that moves a few elements by less than about sqrt(m) kRoundingMargin eps
+// diagonal (2e-11 of the diagonal at a million elements) also ends at its first global step.
 bool DeformationCore::roundingLevel(double E) const {
-  return E <= kRoundingEnergyPerElement * disc_.numElements();
+  const double ratio = disc_.boundingBoxDiagonal() / std::max(disc_.meanEdgeLength(), 1e-300);
+  const double perElement = kRoundingMargin * std::numeric_limits<double>::epsilon() * ratio;
+  return E <= perElement * perElement * disc_.numElements();
 }
 
 void DeformationCore::iterateReference(int maxIterations, double tolerance, Eigen::MatrixXd& X,
@@ -451,6 +459,7 @@ void DeformationCore::runSteps(int maxIterations, double relTolerance,
     }
     if (roundingLevel(E)) {  // e.g. every handle at rest: the first global step is exact
       system_.factorize();   // as for any run after new handles (Fig. 5's counts hold)
+      stationarityDue_ = false;
       settleAtRounding(result);
     } else if (options_.localStep == LocalStep::Reference) {
       iterateReference(maxIterations, relTolerance, X, E, result);
@@ -458,6 +467,11 @@ void DeformationCore::runSteps(int maxIterations, double relTolerance,
       descendLbfgs(maxIterations, relTolerance, X, E, result);
     } else {
       descend(maxIterations, relTolerance, X, E, result);
+    }
+    // A run capped right after it reached rounding level is converged too.
+    if (!result.converged && roundingLevel(result.energies.back())) {
+      stationarityDue_ = false;
+      settleAtRounding(result);
     }
     lastX_ = X;
     lastE_ = result.energies.back();

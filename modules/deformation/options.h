@@ -123,8 +123,9 @@ struct DeformationOptions {
   int maxIterations = kDefaultIterations;
   /// Exact local step: stop when one plain local/global iteration from the current shape would
   /// lower the energy by less than this fraction of it (the stationarity criterion,
-  /// DeformationResult::criterion). Reference local step: stop when an iteration changes the
-  /// energy by less than this fraction.
+  /// DeformationResult::criterion), or when the energy is at rounding level (docs/method.md:
+  /// e.g. every handle at rest), also with 0. Reference local step: stop when an iteration changes
+  /// the energy by less than this fraction.
   double relTolerance = kDefaultTolerance;
   SolverBackend backend = defaultSolverBackend();
   /// Keep the regularizer's couplings in the system's sparsity pattern while the regularization
