@@ -112,6 +112,7 @@ TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",
       {in + h + "-o c.png --deform 'measure'", "deform"},
       {in + h + "-o c.png --weights 'nothing t=1'", "nothing"},
       {in + h + "-o c.png --size 20x20", "--size"},
+      {in + h + "-o c.png --up w", "--up"},
       {in + h + "-o c.png --beta nan", "--beta"},
       {in + h + "-o c.png --beta 1.5", "--beta"},
   };

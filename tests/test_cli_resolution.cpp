@@ -93,6 +93,7 @@ TEST_CASE("diffreg resolution: bad options and input exit non-zero with one line
       {in + h + "-o r.png --t 1e308", "--t"},
       {in + h + "-o r.png --scheme cubic", "cubic"},
       {in + h + "-o r.png --size 20x20", "--size"},
+      {in + h + "-o r.png --up Y", "--up"},
       {in + h + "-o r.png --probe 100000", "--probe"},
       {in + h + "-o r.png --report r.png", "twice"},
       {in + h + "-o r.png --colour red", "colour"},

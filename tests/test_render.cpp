@@ -52,6 +52,8 @@ TEST_CASE("3D views stand a shape on its longest side unless told otherwise", "[
   const Eigen::AlignedBox3d part(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.3, 0.5, 1.0));
   CHECK(uprightAxis(part) == 2);
   CHECK(uprightAxis(Eigen::AlignedBox3d()) == 1);  // nothing to frame: y
+  CHECK(uprightAxis(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 1))) ==
+        1);  // a sphere or a cube: y, as MeshLab shows a model
 }
 
 TEST_CASE("writePng writes a PNG that decodes to the same pixels") {

@@ -610,9 +610,9 @@ Eigen::AlignedBox3d meshBounds(const Mesh& mesh) {
 
 int uprightAxis(const Eigen::AlignedBox3d& frame) {
   if (frame.isEmpty()) return 1;
-  Eigen::Index axis = 1;
-  frame.sizes().maxCoeff(&axis);
-  return static_cast<int>(axis);
+  const Eigen::Vector3d size = frame.sizes();
+  if (size.y() >= (1.0 - 1e-9) * size.maxCoeff()) return 1;  // ties: y
+  return size.x() >= size.z() ? 0 : 2;
 }
 
 Image renderMesh(const Mesh& mesh, const RenderOptions& options) {

@@ -127,7 +127,7 @@ Eigen::AlignedBox3d meshBounds(const Mesh& mesh);
 
 /// The world axis drawn vertically in 3D views when none is asked for (up=auto, the tool's
 /// compare and resolution without --up): the longest side of `frame`, so that a standing
-/// figure stands and a long part fills a portrait panel (y for an empty frame).
+/// figure stands and a long part fills a portrait panel (y for an empty frame or a tie).
 int uprightAxis(const Eigen::AlignedBox3d& frame);
 
 /// Renders `mesh` at its current positions: triangle meshes directly, tet meshes by their

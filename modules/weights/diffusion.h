@@ -155,7 +155,8 @@ class DiffusionWeights {
   /// Per-vertex range factor r_i actually used: each vertex takes the r_j of the handle nearest
   /// to it along mesh edges (the paper leaves open how a handle's r_j reaches the free vertices
   /// whose diffusion speed it scales; docs/method.md, "Diffused weights"). Known from
-  /// setHandles() on; the search along the edges runs only when some r_j is not 1.
+  /// setHandles() on; the search along the edges runs only when some r_j is not 1, and is kept
+  /// (so this const method writes a cache: one thread at a time, like the rest of the class).
   Eigen::VectorXd rangeField() const;
 
  private:

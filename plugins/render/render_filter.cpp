@@ -48,6 +48,18 @@ void checkOutput(const std::string& file) {
                   "' is not writable");
 }
 
+/// The rest shape's bounds (the current mesh's when the document has no rest positions): the
+/// up axis of up=auto, the same before and after a deformation.
+Eigen::AlignedBox3d restBounds(const Document& doc) {
+  if (doc.rest.rows() != doc.mesh.numVertices() || doc.rest.cols() != 3)
+    return meshBounds(doc.mesh);
+  Eigen::AlignedBox3d box;
+  const std::vector<bool> used = doc.mesh.referenced();
+  for (Eigen::Index i = 0; i < doc.rest.rows(); ++i)
+    if (used[static_cast<size_t>(i)]) box.extend(Eigen::Vector3d(doc.rest.row(i).transpose()));
+  return box;
+}
+
 }  // namespace
 
 std::string RenderFilter::description() const {
@@ -87,7 +99,7 @@ std::vector<ParamSpec> RenderFilter::params() const {
       floatParam("pitch", "-20", -90.0, 90.0,
                  "Orbit view: degrees of elevation; negative looks down on the mesh."),
       enumParam("up", "auto", {"auto", "x", "y", "z"},
-                "Orbit view: the world axis shown vertical; auto = the shape's longest side."),
+                "Orbit view: the world axis shown vertical; auto = the rest shape's longest side."),
       stringParam("title", "", "Text above the picture (none when empty)."),
   };
 }
@@ -137,10 +149,7 @@ FilterResult RenderFilter::apply(Document& doc, const ParamMap& params) const {
   options.yaw = params.getFloat("yaw");
   options.pitch = params.getFloat("pitch");
   const std::string up = params.getString("up");
-  options.upAxis = up == "x"   ? 0
-                   : up == "y" ? 1
-                   : up == "z" ? 2
-                               : uprightAxis(meshBounds(doc.mesh));
+  options.upAxis = up == "x" ? 0 : up == "y" ? 1 : up == "z" ? 2 : uprightAxis(restBounds(doc));
   options.title = params.getString("title");
 
   const Image image = renderMesh(mesh, options);

@@ -10,8 +10,11 @@
 #include <diffreg/discretization/discretization.h>
 #include <diffreg/weights/diffusion.h>
 
+#include <atomic>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
+#include <thread>
 
 namespace diffreg::python {
 
@@ -24,16 +27,34 @@ ParamMap paramsOf(const std::string& filter, const std::map<std::string, std::st
 
 // A session's methods run one at a time: a solve releases the GIL, so another Python thread
 // could otherwise change the session under it. The lock is awaited without the GIL, so a
-// thread waiting for it never blocks the one that holds it.
+// thread waiting for it never blocks the one that holds it. A call made from within one of the
+// session's own calls (Python code run while its arguments are converted, e.g. an __array__)
+// is an error, not a wait on itself.
+struct SessionMutex {
+  std::mutex mutex;
+  std::atomic<std::thread::id> owner{};
+};
+
 class SessionLock {
  public:
-  explicit SessionLock(std::mutex& mutex) : lock_(mutex, std::defer_lock) {
-    py::gil_scoped_release release;
-    lock_.lock();
+  explicit SessionLock(SessionMutex& m) : m_(m) {
+    if (m.owner.load() == std::this_thread::get_id())
+      throw std::runtime_error("session: called from within one of its own calls");
+    {
+      py::gil_scoped_release release;
+      m.mutex.lock();
+    }
+    m.owner.store(std::this_thread::get_id());
   }
+  ~SessionLock() {
+    m_.owner.store(std::thread::id());
+    m_.mutex.unlock();
+  }
+  SessionLock(const SessionLock&) = delete;
+  SessionLock& operator=(const SessionLock&) = delete;
 
  private:
-  std::unique_lock<std::mutex> lock_;
+  SessionMutex& m_;
 };
 
 // The rest mesh and its discretization, which the C++ sessions refer to.
@@ -107,7 +128,7 @@ class PyDiffusionWeights {
   }
   std::unique_ptr<Shape> shape_;  // before session_, which refers to it
   DiffusionWeights session_;
-  mutable std::mutex mutex_;
+  mutable SessionMutex mutex_;
   std::map<std::string, std::string> values_;
   int count_ = 0;
 };
@@ -249,7 +270,7 @@ class PyDeformationSession {
   }
   std::unique_ptr<Shape> shape_;
   std::unique_ptr<DeformationSession> session_;
-  mutable std::mutex mutex_;
+  mutable SessionMutex mutex_;
   std::vector<int> vertices_;
   std::vector<int> perHandle_;
 };

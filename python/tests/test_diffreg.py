@@ -239,6 +239,17 @@ def test_one_session_shared_by_threads():
     for X in runs[0] + runs[1]:
         assert min(np.abs(X - e).max() for e in expected) < 1e-9
 
+    # A call from within one of the session's own calls is an error, not a wait on itself.
+    class Handles(list):
+        def __getitem__(self, j):
+            shared.stats  # the session is in set_handles
+            return list.__getitem__(self, j)
+    with pytest.raises(RuntimeError, match="within one of its own calls"):
+        shared.set_handles(Handles(handles))
+    shared.set_handles(handles)
+    shared.set_targets(moved(1))  # the session is free again
+    np.testing.assert_allclose(shared.solve()[0], expected[1], rtol=0, atol=1e-9)
+
 
 # ---- errors ---------------------------------------------------------------------------------------
 
