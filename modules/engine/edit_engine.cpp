@@ -269,12 +269,10 @@ void EditEngine::validate(const EditState& s) const {
                                std::to_string(o));
       o = h.id;
     }
+    checkRange(name + ": range", h.range, kMinHandleRange, kMaxHandleRange, false);
+    checkRange(name + ": magnitude", h.magnitude, 0.0, 1.0, false);
     // Weights alone need no targets.
-    if (h.targets.size() == 0 && !s.params.deform && !s.params.reference) {
-      checkRange(name + ": range", h.range, kMinHandleRange, kMaxHandleRange, false);
-      checkRange(name + ": magnitude", h.magnitude, 0.0, 1.0, false);
-      continue;
-    }
+    if (h.targets.size() == 0 && !s.params.deform && !s.params.reference) continue;
     if (h.targets.rows() != static_cast<Eigen::Index>(h.vertices.size()) || h.targets.cols() != 3)
       throw InvalidParameter(name + ": " + std::to_string(h.vertices.size()) +
                              " vertices need as many targets of 3 coordinates");
@@ -287,8 +285,6 @@ void EditEngine::validate(const EditState& s) const {
         throw InvalidParameter(name + ": the target of vertex " + std::to_string(h.vertices[i]) +
                                " is more than 1000 mesh diagonals away");
     }
-    checkRange(name + ": range", h.range, kMinHandleRange, kMaxHandleRange, false);
-    checkRange(name + ": magnitude", h.magnitude, 0.0, 1.0, false);
   }
   const EditParams& p = s.params;
   checkRange("beta", p.beta, 0.0, 1.0, false);

@@ -599,9 +599,10 @@ Eigen::Vector3d Projection::project(const Eigen::Vector3d& world) const {
   return {cx_ + scale_ * q.x(), cy_ - scale_ * q.y(), scale_ * q.z()};
 }
 
-Eigen::AlignedBox3d meshBounds(const Mesh& mesh) {
+Eigen::AlignedBox3d meshBounds(const Mesh& mesh) { return meshBounds(mesh, mesh.positions()); }
+
+Eigen::AlignedBox3d meshBounds(const Mesh& mesh, const Eigen::MatrixXd& p) {
   Eigen::AlignedBox3d box;
-  const Eigen::MatrixXd p = mesh.positions();
   const std::vector<bool> used = mesh.referenced();
   for (int i = 0; i < p.rows(); ++i)
     if (used[i] && p.row(i).allFinite()) box.extend(Eigen::Vector3d(p.row(i).transpose()));

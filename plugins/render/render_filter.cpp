@@ -53,11 +53,7 @@ void checkOutput(const std::string& file) {
 Eigen::AlignedBox3d restBounds(const Document& doc) {
   if (doc.rest.rows() != doc.mesh.numVertices() || doc.rest.cols() != 3)
     return meshBounds(doc.mesh);
-  Eigen::AlignedBox3d box;
-  const std::vector<bool> used = doc.mesh.referenced();
-  for (Eigen::Index i = 0; i < doc.rest.rows(); ++i)
-    if (used[static_cast<size_t>(i)]) box.extend(Eigen::Vector3d(doc.rest.row(i).transpose()));
-  return box;
+  return meshBounds(doc.mesh, doc.rest);
 }
 
 }  // namespace

@@ -244,6 +244,19 @@ HandleSet toHandles(const Mesh& mesh, const py::handle& handles, const py::handl
   return set;
 }
 
+void checkWeightsFor(const std::string& who, const std::string& regularization,
+                     const py::handle& weights) {
+  if (regularization == "nonuniform" && weights.is_none())
+    throw InvalidParameter(who +
+                           ": regularization nonuniform needs weights (one per vertex, "
+                           "e.g. from diffuse_weights or rbf_weights)");
+  if (regularization != "nonuniform" && !weights.is_none())
+    throw InvalidParameter(
+        who + ": weights are used by regularization='nonuniform' only (got " +
+        (regularization.empty() ? std::string("the default, 'none'") : "'" + regularization + "'") +
+        ")");
+}
+
 std::map<std::string, std::string> toParamText(const py::dict& kwargs) {
   std::map<std::string, std::string> out;
   for (const auto& [key, value] : kwargs) {

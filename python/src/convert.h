@@ -58,6 +58,12 @@ HandleSet toHandles(const Mesh& mesh, const py::handle& handles, const py::handl
 /// ParamMap, so unknown ones give the CLI's message listing the valid ones.
 std::map<std::string, std::string> toParamText(const py::dict& kwargs);
 
+/// Weights go with regularization 'nonuniform' and nothing else: `who` (e.g. "deform") gets
+/// them exactly when `regularization` ("" for the default, none) asks for them.
+/// \throw InvalidParameter otherwise.
+void checkWeightsFor(const std::string& who, const std::string& regularization,
+                     const py::handle& weights);
+
 /// The numpy array owning `m` (no copy) and the vector likewise.
 py::array fromMatrix(Eigen::MatrixXd m);
 py::array fromMatrix(Eigen::MatrixXi m);

@@ -64,15 +64,7 @@ py::tuple deformArrays(const py::object& V, const py::object& E, const py::objec
       kwargs.contains("regularization") && !kwargs["regularization"].is_none()
           ? py::str(kwargs["regularization"]).cast<std::string>()
           : "";
-  if (regularization == "nonuniform" && weights.is_none())
-    throw InvalidParameter(
-        "deform: regularization nonuniform needs weights (one per vertex, e.g. from "
-        "diffuse_weights or rbf_weights)");
-  if (regularization != "nonuniform" && !weights.is_none())
-    throw InvalidParameter(
-        "deform: weights are used by regularization='nonuniform' only (got " +
-        (regularization.empty() ? std::string("the default, 'none'") : "'" + regularization + "'") +
-        ")");
+  checkWeightsFor("deform", regularization, weights);
   py::dict info = applyFilter(doc, "deform", kwargs);
   return py::make_tuple(fromMatrix(doc.mesh.positions()), info);
 }

@@ -152,14 +152,9 @@ class PyDeformationSession {
                        const py::kwargs& kwargs)
       : shape_(std::make_unique<Shape>(V, E)) {
     DeformationOptions options = deformationOptionsOf(paramsOf("deform", toParamText(kwargs)));
-    if (options.regularization == Regularization::Nonuniform) {
-      if (weights.is_none())
-        throw InvalidParameter("DeformationSession: regularization nonuniform needs weights");
+    checkWeightsFor("DeformationSession", toString(options.regularization), weights);
+    if (!weights.is_none())
       options.weights = toVector(weights, "weights", shape_->mesh.numVertices());
-    } else if (!weights.is_none()) {
-      throw InvalidParameter(
-          "DeformationSession: weights are used by regularization='nonuniform' only");
-    }
     session_ = std::make_unique<DeformationSession>(shape_->disc, options);
   }
   void setHandles(const py::object& handles) {
