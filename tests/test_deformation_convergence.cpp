@@ -48,7 +48,7 @@ DeformationOptions optionsFor(const Bent& b, Energy energy, Regularization mode)
   o.energy = energy;
   o.regularization = mode;
   o.beta = 0.5;
-  o.weights = bumpWeights(*b.disc, b.tip, 0.8, b.scale);
+  if (mode == Regularization::Nonuniform) o.weights = bumpWeights(*b.disc, b.tip, 0.8, b.scale);
   return o;
 }
 

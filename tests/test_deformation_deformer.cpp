@@ -32,7 +32,7 @@ Discretization scrambledCopy(const Discretization& disc, unsigned seed) {
 
 // Every regularization setting of the tests: none, uniform 0.5, nonuniform bump (peak 0.8).
 void applyMode(DeformationSession& s, Regularization mode, const Eigen::VectorXd& weights) {
-  s.setRegularization(mode, 0.5, weights);
+  s.setRegularization(mode, 0.5, mode == Regularization::Nonuniform ? weights : Eigen::VectorXd());
 }
 
 // Bends the bar: end 0 fixed, end 1 rotated by `angle` about its centre and lifted.
@@ -445,7 +445,7 @@ TEST_CASE("scaling the mesh and the handle motion by 100 scales the result by 10
         o.energy = energy;
         o.regularization = mode;
         o.beta = 0.5;
-        o.weights = x;
+        if (mode == Regularization::Nonuniform) o.weights = x;
         o.maxIterations = 5;
         const DeformationResult a = deform(*disc, o, handles, targets);
         const DeformationResult b = deform(*big, o, handles, 100.0 * targets);
@@ -634,6 +634,15 @@ TEST_CASE("bad session input is a clear error", "[deformation][session]") {
   CHECK_THROWS_AS(s.setBeta(-0.5), InvalidParameter);
   CHECK_THROWS_AS(s.setWeights(Eigen::VectorXd::Zero(n - 1)), InvalidParameter);
   CHECK_THROWS_AS(s.setWeights(Eigen::VectorXd::Constant(n, -0.1)), InvalidParameter);
+  // Weights with another mode would be ignored: an error, in the session and in its options.
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(n);
+  CHECK_THROWS_WITH(s.setRegularization(Regularization::Uniform, 0.5, ones),
+                    Catch::Matchers::Contains("regularization is uniform") &&
+                        Catch::Matchers::Contains("only with nonuniform"));
+  DeformationOptions withWeights;
+  withWeights.weights = ones;  // regularization None by default
+  CHECK_THROWS_WITH(DeformationSession(*disc, withWeights),
+                    Catch::Matchers::Contains("regularization is none"));
   CHECK_THROWS_AS(s.solve(0, 1e-6), InvalidParameter);
   // The session still works after rejected input.
   CHECK(maxAbs(s.solve().positions - disc->rest()) < 1e-9);

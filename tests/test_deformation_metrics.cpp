@@ -54,7 +54,7 @@ Outcome run(const PushedBar& b, Regularization mode, double beta, const Eigen::V
   o.energy = Energy::Arap;
   o.regularization = mode;
   o.beta = beta;
-  o.weights = x;
+  if (mode == Regularization::Nonuniform) o.weights = x;
   o.maxIterations = 100;
   o.relTolerance = 1e-8;
   const DeformationResult r = deform(*b.disc, o, b.handles, b.targets);

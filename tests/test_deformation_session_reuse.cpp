@@ -27,7 +27,7 @@ DeformationResult solveFresh(const Discretization& disc, const DeformationOption
                              const std::vector<int>& handles, const Eigen::MatrixXd& targets,
                              Regularization mode, double beta, const Eigen::VectorXd& weights) {
   DeformationSession s(disc, o);
-  s.setRegularization(mode, beta, weights);
+  s.setRegularization(mode, beta, mode == Regularization::Nonuniform ? weights : Eigen::VectorXd());
   s.setHandles(handles);
   s.setTargets(targets);
   return s.solve(2, 0.0);
@@ -64,7 +64,8 @@ TEST_CASE("a session after new weights, handles and targets solves as a fresh on
                                  Step{Regularization::Nonuniform, 0.0, 0.3, false},
                                  Step{Regularization::Nonuniform, 0.0, 0.3, true},
                                  Step{Regularization::None, 0.0, 0.2, true}}) {
-          s.setRegularization(step.mode, step.beta, bump);
+          const bool nonuniform = step.mode == Regularization::Nonuniform;
+          s.setRegularization(step.mode, step.beta, nonuniform ? bump : Eigen::VectorXd());
           if (step.fewerHandles && current.size() == handles.size()) {
             current.pop_back();
             s.setHandles(current);

@@ -442,6 +442,7 @@ TEST_CASE("edit engine: weights alone, then the deformation, then its reference"
   CHECK(u.referenceWork == "analysis");
   REQUIRE(engine.referencePositions().rows() == bar.numVertices());
   options.regularization = Regularization::None;
+  options.weights.resize(0);
   DeformationSession plain(disc, options);
   plain.setHandles(handles.allVertices());
   plain.setTargets(handles.allTargets());

@@ -101,6 +101,12 @@ void DeformationCore::setTargets(const Eigen::MatrixXd& targets) {
 
 void DeformationCore::setRegularization(Regularization mode, double beta,
                                         const Eigen::VectorXd& weights) {
+  // Vertex weights with another mode would be ignored in silence: a caller who set them meant
+  // them to act.
+  if (mode != Regularization::Nonuniform && weights.size() > 0)
+    throw InvalidParameter(std::string("regularization: vertex weights are given, but "
+                                       "regularization is ") +
+                           toString(mode) + "; they apply only with nonuniform");
   const RegularizationWeights w = makeRegularizationWeights(disc_, mode, beta, weights);
   options_.regularization = mode;
   options_.beta = beta;

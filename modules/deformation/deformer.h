@@ -37,7 +37,8 @@ class DeformationSession {
   /// Target positions, one row per handle vertex, d columns (planar meshes accept 3 and ignore z).
   /// \throw InvalidParameter for the wrong shape or non-finite values.
   void setTargets(const Eigen::MatrixXd& targets);
-  /// \throw InvalidParameter for beta outside [0, 1] or bad weights (makeRegularizationWeights).
+  /// \throw InvalidParameter for beta outside [0, 1], bad weights (makeRegularizationWeights),
+  /// or weights given with a mode other than nonuniform (they would be ignored).
   void setRegularization(Regularization mode, double beta, const Eigen::VectorXd& weights = {});
   /// Uniform regularization with this beta.
   void setBeta(double beta);

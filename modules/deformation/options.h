@@ -112,7 +112,7 @@ struct DeformationOptions {
   Energy energy = Energy::Arap;
   Regularization regularization = Regularization::None;
   double beta = kDefaultUniformBeta;  ///< uniform beta (none and nonuniform ignore it)
-  Eigen::VectorXd weights;  ///< per-vertex weights in [0, 1] for nonuniform
+  Eigen::VectorXd weights;  ///< per-vertex weights in [0, 1] for nonuniform (an error with others)
   /// Exact (block coordinate descent on eq. 3, the default) or the reference code's local step.
   LocalStep localStep = LocalStep::Exact;
   /// L-BFGS (the default), Anderson or none. The reference local step is never accelerated
