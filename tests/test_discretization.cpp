@@ -280,6 +280,22 @@ TEST_CASE("Degenerate elements are rejected, naming the element", "[discretizati
   CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, bad), Catch::Contains("out of range"));
 }
 
+TEST_CASE("A planar discretization of points off their plane is refused, not flattened",
+          "[discretization][hostile]") {
+  Eigen::MatrixXd P(4, 3);
+  P << 0, 0, 5, 1, 0, 5, 1, 1, 5, 0, 1, 5;
+  Eigen::MatrixXi F(2, 3);
+  F << 0, 1, 2, 0, 2, 3;
+  // Any constant z, and 2 columns, are a plane.
+  CHECK(Discretization(MeshKind::Planar, P, F).dim() == 2);
+  CHECK(Discretization(MeshKind::Planar, P.leftCols(2), F).dim() == 2);
+  P(2, 2) = 5.5;
+  CHECK_THROWS_WITH(Discretization(MeshKind::Planar, P, F),
+                    Catch::Contains("planar mesh lies in a plane z = const") &&
+                        Catch::Contains("z spans 0.5") && Catch::Contains("as a surface"));
+  CHECK(Discretization(MeshKind::Surface, P, F).dim() == 3);
+}
+
 TEST_CASE("A mesh too large or too small for double precision is refused by its size",
           "[discretization][hostile]") {
   // At 1e60 a tet's squared volume overflows, at 1e-60 it underflows: the solve used to end in

@@ -46,7 +46,8 @@ class Discretization {
   /// Same, from raw arrays: positions n x 3 and elements m x 3 or m x 4. Triangles are put into
   /// an OpenMesh mesh first, so they must form an oriented edge-manifold (readMesh splits
   /// vertices where a file's triangles do not).
-  /// \throw InvalidMesh also for a triangle that does not fit such a mesh, naming it.
+  /// \throw InvalidMesh also for a triangle that does not fit such a mesh, naming it, and for a
+  ///        planar kind whose z is not constant (the same test as Mesh::kind()).
   Discretization(MeshKind kind, const Eigen::MatrixXd& positions, const Eigen::MatrixXi& elements);
 
   MeshKind kind() const { return kind_; }
