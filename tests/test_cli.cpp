@@ -126,6 +126,15 @@ TEST_CASE("diffreg writes a PLY with quality and colours, and a report") {
   auto outputs = ws.outputs();
   std::sort(outputs.begin(), outputs.end());
   CHECK(outputs == std::vector<std::string>{"out.ply", "report.json"});
+
+  // The PLY gives its weights back: a later run draws them without diffusing again, and writes
+  // the same values.
+  const Result again = ws.run("-i out.ply --filter 'render file=w.png' -o again.ply");
+  INFO((again.errLines.empty() ? "" : again.errLines[0]));
+  REQUIRE(again.code == 0);
+  CHECK(fs::exists(ws.dir() / "w.png"));
+  const std::string back = slurp(ws.dir() / "again.ply");
+  CHECK(back.substr(back.find("end_header")) == ply.substr(ply.find("end_header")));
 }
 
 TEST_CASE("diffreg without filters converts formats; --quiet silences stderr") {

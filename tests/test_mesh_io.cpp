@@ -943,6 +943,44 @@ TEST_CASE("PLY carries vertex and face quality and viridis colours", "[mesh][io]
     for (int i = 0; i < 4; ++i) CHECK(back.property(vq, back.vertex_handle(i)) == w[i]);
     CHECK(back.property(fq, back.face_handle(1)) == d[1]);
   }
+  SECTION("readMesh reads the qualities back as the properties they hold, exactly") {
+    const Mesh back = readMesh(out);
+    REQUIRE(back.hasVertexScalar(prop::weight));
+    REQUIRE(back.hasElementScalar(prop::distortion));
+    CHECK(back.vertexScalar(prop::weight) == Eigen::VectorXd(w));
+    CHECK(back.elementScalar(prop::distortion) == Eigen::VectorXd(d));
+    // Other names, as the writer's options give them.
+    WriteOptions named;
+    named.vertexQuality = prop::distortion;  // absent on vertices: no vertex quality
+    named.faceQuality = "my:area";
+    Mesh other = mesh;
+    other.setElementScalar("my:area", Eigen::Vector2d(0.5, 0.25));
+    writeMesh(tmp / "named.ply", other, named);
+    const Mesh again = readMesh(tmp / "named.ply");
+    CHECK_FALSE(again.hasVertexScalar(prop::weight));
+    CHECK_FALSE(again.hasElementScalar(prop::distortion));
+    REQUIRE(again.hasElementScalar("my:area"));
+    CHECK(again.elementScalar("my:area")(1) == 0.25);
+  }
+  SECTION("a quality whose meaning the file does not state is not taken for the weights") {
+    const std::string foreign = tmp.file(
+        "foreign.ply",
+        "ply\nformat ascii 1.0\ncomment VCGLIB generated\nelement vertex 3\nproperty double x\n"
+        "property double y\nproperty double z\nproperty float quality\nelement face 1\n"
+        "property list uchar int vertex_indices\nproperty float quality\nend_header\n"
+        "0 0 0 0.5\n1 0 0 0.5\n0 1 0 0.5\n3 0 1 2 7\n");
+    const Mesh back = readMesh(foreign);
+    CHECK_FALSE(back.hasVertexScalar(prop::weight));
+    CHECK_FALSE(back.hasElementScalar(prop::distortion));
+  }
+  SECTION("a named quality that is not finite names the element") {
+    std::string text = slurp(out);
+    const size_t at = text.find(" 0.25 ");
+    REQUIRE(at != std::string::npos);
+    text.replace(at, 6, " nan ");
+    CHECK_THROWS_WITH(readMesh(tmp.file("nan.ply", text)),
+                      Catch::Contains("vertex 1") && Catch::Contains("non-finite quality"));
+  }
   SECTION("no properties, no colours: plain PLY that readMesh reads") {
     const Mesh plain = readMesh(tmp.file("p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
     writeMesh(tmp / "p.ply", plain);

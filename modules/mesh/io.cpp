@@ -232,14 +232,25 @@ void writePoint(TextOut& out, const Points& points, int i) {
   out << points(i, 0) << ' ' << points(i, 1) << ' ' << points(i, 2);
 }
 
+/// Whether a property name can stand in a PLY comment as one word: printable ASCII, no space.
+bool oneWord(const std::string& name) {
+  return !name.empty() &&
+         std::all_of(name.begin(), name.end(), [](char c) { return c > ' ' && c < 127; });
+}
+
 /// ASCII PLY: points (double; n x 3, an Eigen matrix or view), optional vertex quality (double)
-/// with viridis colours, faces with optional face quality (double).
+/// with viridis colours, faces with optional face quality (double). `vname` and `fname`, when
+/// not empty, are the properties the qualities hold, written as header comments that readMesh
+/// reads them back by.
 template <typename Points>
 void writePly(std::ostream& stream, const Points& points, const Eigen::MatrixXi& faces,
-              const Eigen::VectorXd* vquality, const Eigen::VectorXd* fquality, bool colors) {
+              const Eigen::VectorXd* vquality, const Eigen::VectorXd* fquality, bool colors,
+              const std::string& vname = "", const std::string& fname = "") {
   TextOut out(&stream);
   colors = colors && vquality != nullptr;
   out << "ply\nformat ascii 1.0\ncomment diffreg\n";
+  if (vquality && oneWord(vname)) out << "comment diffreg vertex quality " << vname << "\n";
+  if (fquality && oneWord(fname)) out << "comment diffreg face quality " << fname << "\n";
   out << "element vertex " << points.rows() << "\n";
   out << "property double x\nproperty double y\nproperty double z\n";
   if (vquality) out << "property double quality\n";
@@ -281,6 +292,29 @@ void writeObjOff(std::ostream& stream, const Mesh& mesh, bool obj) {
   });
 }
 
+/// The qualities of a PLY that names what they hold (diffreg's writer) as those properties of
+/// `mesh`, one value per vertex and face of the file. Where building the mesh added vertices
+/// (split faces) or faces (polygons), the values no longer fit it: a warning says so.
+void keepPlyQuality(const RawMesh& raw, Mesh& mesh, const std::string& path) {
+  const auto keep = [&](bool vertex, const std::string& name, const std::vector<double>& v) {
+    if (name.empty()) return;
+    const int count = vertex ? mesh.numVertices() : mesh.numElements();
+    if (static_cast<int>(v.size()) != count) {
+      warn(path + ": the " + (vertex ? "vertex" : "face") + " quality (" + name +
+           ") is not kept: the mesh has " + std::to_string(count) + " " +
+           (vertex ? "vertices" : "faces") + " where the file has " + std::to_string(v.size()));
+      return;
+    }
+    const Eigen::VectorXd values = Eigen::Map<const Eigen::VectorXd>(v.data(), count);
+    if (vertex)
+      mesh.setVertexScalar(name, values);
+    else
+      mesh.setElementScalar(name, values);
+  };
+  keep(true, raw.vertexQualityName, raw.vertexQuality);
+  keep(false, raw.faceQualityName, raw.faceQuality);
+}
+
 }  // namespace
 
 std::string extensionOf(const std::string& path) {
@@ -300,7 +334,9 @@ Mesh readMesh(const std::string& path) {
   } else if (ext == "off") {
     mesh = Mesh(buildTriMesh(parseOff(text(), path), path));
   } else if (ext == "ply") {
-    mesh = Mesh(buildTriMesh(parsePly(text(), path), path));
+    const RawMesh raw = parsePly(text(), path);
+    mesh = Mesh(buildTriMesh(raw, path));
+    keepPlyQuality(raw, mesh, path);
   } else if (ext == "om") {
     mesh = parseOm(text(), path);
   } else if (ext == "mesh" || ext == "node" || ext == "ele") {
@@ -430,7 +466,7 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
                  options.colors);
       } else {
         writePly(out, mesh.points(), mesh.elements(), vq ? &*vq : nullptr, fq ? &*fq : nullptr,
-                 options.colors);
+                 options.colors, options.vertexQuality, options.faceQuality);
       }
     } else if (ext == "obj" || ext == "off") {
       writeObjOff(out, mesh, ext == "obj");

@@ -13,7 +13,8 @@ namespace diffreg {
 /// Tetrahedra; other blocks ignored) or TetGen .node/.ele (either name given; the other is
 /// found beside it) in double precision (mesh/parse.h), then validates it (see validateMesh).
 /// Polygonal faces are ear-clipped in their plane, with a warning. Files are read through
-/// readFileLimited (regular files of at most limits::meshBytes).
+/// readFileLimited (regular files of at most limits::meshBytes). A PLY whose header names
+/// what its vertex or face quality holds (writeMesh) gives those properties back.
 /// \throw IoError missing, unreadable, special or oversized file, unknown extension.
 /// \throw InvalidMesh malformed content, counts the file cannot hold, values beyond double,
 ///        empty, out-of-range indices, bad polygons, degenerate elements, inverted tets, a
@@ -37,7 +38,9 @@ struct WriteOptions {
 /// Writes OBJ/OFF/PLY/OM for triangle meshes, Medit .mesh for tet meshes (and PLY for a tet
 /// mesh's boundary surface), coordinates and qualities as doubles (text: the shortest form
 /// that reads back exactly). The file is written to a temporary name beside `path` and
-/// renamed into place, so a failed write leaves any existing file untouched.
+/// renamed into place, so a failed write leaves any existing file untouched. A triangle mesh's
+/// PLY names the properties its qualities hold in header comments ("comment diffreg vertex
+/// quality diffreg:weight"), which readMesh reads them back as.
 /// \throw IoError unknown or unsupported extension for the mesh kind, write failure.
 /// \throw InvalidMesh non-finite coordinates or written property values (nothing is written).
 void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});

@@ -603,6 +603,7 @@ struct PlyHeader {
   std::vector<PlyElement> elements;
   size_t dataStart = 0;
   int dataLine = 0;
+  std::string vertexQualityName, faceQualityName;  // "comment diffreg vertex|face quality NAME"
 };
 
 PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
@@ -624,6 +625,10 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
     if (line == 1) {
       if (t.size() != 1 || t[0] != "ply") throw InvalidMesh(where + ": not a PLY file (no 'ply')");
       continue;
+    }
+    if (t.size() == 5 && t[0] == "comment" && t[1] == "diffreg" && t[3] == "quality") {
+      if (t[2] == "vertex") h.vertexQualityName = std::string(t[4]);
+      if (t[2] == "face") h.faceQualityName = std::string(t[4]);
     }
     if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
     if (t[0] == "end_header") break;
@@ -803,6 +808,11 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
   const bool vertex = e.name == "vertex", face = e.name == "face";
   const int xyz[3] = {findProperty(e, {"x"}), findProperty(e, {"y"}), findProperty(e, {"z"})};
   const int ids = findProperty(e, {"vertex_indices", "vertex_index"});
+  // The quality, where the header names what it holds (diffreg's own files).
+  const bool named = vertex ? !raw.vertexQualityName.empty() : face && !raw.faceQualityName.empty();
+  int quality = named ? findProperty(e, {"quality"}) : -1;
+  if (quality >= 0 && e.props[quality].isList()) quality = -1;
+  std::vector<double>* qualities = vertex ? &raw.vertexQuality : &raw.faceQuality;
   const std::string where = source + ":" + std::to_string(e.line);
   if (vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
     throw InvalidMesh(where + ": the vertex element has no x, y and z");
@@ -827,6 +837,10 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
       const double v = in.next(prop, PlyValues::Part::Value);
       for (int c = 0; c < 3; ++c)
         if (vertex && static_cast<int>(i) == xyz[c]) p[c] = v;
+      if (static_cast<int>(i) == quality) {
+        if (!std::isfinite(v)) throw InvalidMesh(in.where() + " has a non-finite quality");
+        qualities->push_back(v);
+      }
     }
     if (vertex) {
       if (!p.allFinite()) throw InvalidMesh(in.where() + " has a non-finite coordinate");
@@ -849,8 +863,12 @@ RawMesh parsePly(std::string_view text, const std::string& source) {
     need += static_cast<std::uint64_t>(e.count) * e.minBytes(h.format);
   }
   RawMesh raw;
+  raw.vertexQualityName = h.vertexQualityName;
+  raw.faceQualityName = h.faceQualityName;
   PlyValues values(text, h, source);
   for (const PlyElement& e : h.elements) readPlyElement(values, e, source, raw);
+  if (raw.vertexQuality.empty()) raw.vertexQualityName.clear();
+  if (raw.faceQuality.empty()) raw.faceQualityName.clear();
   return raw;
 }
 

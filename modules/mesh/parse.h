@@ -38,6 +38,11 @@ struct RawMesh {
   std::vector<Eigen::Vector3d> points;
   std::vector<RawFace> faces;
   int base = 0;  ///< the file's first vertex and face number in messages (OBJ: 1)
+  /// PLY written by diffreg: the property its vertex and face "quality" hold (the header's
+  /// "comment diffreg vertex quality NAME", "... face quality NAME"), and their values, one per
+  /// vertex and face as read; empty for any other file.
+  std::string vertexQualityName, faceQualityName;
+  std::vector<double> vertexQuality, faceQuality;
 };
 
 /// OBJ's v and f lines. The other OBJ statements (vt, vn, g, usemtl, free-form geometry, ...)
@@ -52,6 +57,8 @@ namespace detail {
 RawMesh parseObjByTokens(std::string_view text, const std::string& source);
 }  // namespace detail
 RawMesh parseOff(std::string_view text, const std::string& source);
+/// PLY (ASCII or binary). The "quality" of vertices and faces is kept (RawMesh) only in files
+/// whose header names the property it holds, as diffreg's writer does.
 RawMesh parsePly(std::string_view text, const std::string& source);
 TetMesh parseMedit(std::string_view text, const std::string& source);
 TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::string_view ele,
