@@ -111,11 +111,17 @@ TEST_CASE("diffreg -s with a bad script: one line naming the file, nothing writt
   std::ofstream(s.dir / "range.mlx")
       << "<FilterScript><filter name=\"deform\"><Param name=\"beta\" type=\"RichFloat\" "
          "value=\"3\"/></filter></FilterScript>\n";
+  // A step whose file is missing fails when it runs, not in the check: still named by line.
+  std::ofstream(s.dir / "absent.mlx")
+      << "<FilterScript>\n <filter name=\"diffuse_weights\"/>\n <filter name=\"measure\">\n"
+         "  <Param name=\"reference\" type=\"RichString\" value=\"nope.obj\"/>\n"
+         " </filter>\n</FilterScript>\n";
   const std::string in =
       "-i '" + shipped("bar.obj") + "' --handles '" + shipped("bar-bend.json") + "' ";
   for (const auto& [script, needle] :
        {std::pair{"unknown.mlx", "smooth_everything"}, std::pair{"broken.mlx", "broken.mlx"},
-        std::pair{"range.mlx", "beta"}, std::pair{"missing.mlx", "missing.mlx"}}) {
+        std::pair{"range.mlx", "beta"}, std::pair{"missing.mlx", "missing.mlx"},
+        std::pair{"absent.mlx", "absent.mlx:3: filter measure: parameter 'reference'"}}) {
     INFO(script);
     const ToolRun r = s.run(in + "-s " + script + " -o out.ply");
     CHECK(r.code != 0);

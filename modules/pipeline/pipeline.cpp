@@ -28,20 +28,32 @@ template <class E>
   throw E(steps[at].origin + ": " + e.what());
 }
 
+// work(), with an error in step `at` (as work() leaves it) naming the script and the line that
+// step was written at, as its own type.
+template <class Work>
+void namingTheStep(const std::vector<Step>& steps, const size_t& at, Work&& work) {
+  try {
+    work();
+  } catch (const InvalidParameter& e) {
+    rethrowFrom(steps, at, e);
+  } catch (const MissingProperty& e) {
+    rethrowFrom(steps, at, e);
+  } catch (const IoError& e) {
+    rethrowFrom(steps, at, e);
+  } catch (const InvalidMesh& e) {
+    rethrowFrom(steps, at, e);
+  } catch (const NonFiniteSolution& e) {
+    rethrowFrom(steps, at, e);
+  } catch (const SingularSystem& e) {
+    rethrowFrom(steps, at, e);
+  }
+}
+
 }  // namespace
 
 void Pipeline::check(const Document& doc) const {
-  // An error in a step written in a script names the script and the line.
   size_t at = 0;
-  try {
-    checkSteps(doc, at);
-  } catch (const InvalidParameter& e) {
-    rethrowFrom(steps_, at, e);
-  } catch (const MissingProperty& e) {
-    rethrowFrom(steps_, at, e);
-  } catch (const IoError& e) {
-    rethrowFrom(steps_, at, e);
-  }
+  namingTheStep(steps_, at, [&] { checkSteps(doc, at); });
 }
 
 void Pipeline::checkSteps(const Document& doc, size_t& at) const {
@@ -100,11 +112,13 @@ nlohmann::json Pipeline::run(Document& doc) const {
                     {"vertices", doc.mesh.numVertices()},
                     {"elements", doc.mesh.numElements()}};
   report["filters"] = nlohmann::json::array();
-  for (const auto& step : steps_) {
+  for (size_t at = 0; at < steps_.size(); ++at) {
+    const Step& step = steps_[at];
     const Filter& filter = registry_.get(step.filter);
     const ParamMap params(filter.name(), filter.params(), step.values);
     Timer timer;
-    FilterResult result = filter.apply(doc, params);
+    FilterResult result;
+    namingTheStep(steps_, at, [&] { result = filter.apply(doc, params); });
     const double seconds = timer.seconds();
 
     nlohmann::json entry = nlohmann::json::object();

@@ -13,7 +13,7 @@ struct Step {
   std::string filter;
   std::map<std::string, std::string> values;  ///< raw text values; defaults filled in on run
   /// Where the step was written ("script.mlx:12" for a script's <filter>; "" otherwise): the
-  /// errors check() finds in it start with this.
+  /// errors check() finds in it, and those its filter throws when it runs, start with this.
   std::string origin = {};
 };
 
