@@ -330,6 +330,13 @@ TEST_CASE("serve API: POST /api/refine continues an unconverged deformation", "[
         Approx(state.at("metrics").at("energy").get<double>()).epsilon(1e-12));
   CHECK(state.at("metrics").at("energy_relaxed").get<bool>());  // converged: relaxed
   CHECK(f.send("GET", "/api/refine").first == 405);
+  // It takes no fields: a malformed or non-empty body is refused, an empty one is fine.
+  CHECK(f.send("POST", "/api/refine", "{").first == 400);
+  CHECK(f.send("POST", "/api/refine", "[1]").first == 400);
+  const auto fields = f.send("POST", "/api/refine", R"({"iterations": 10})");
+  CHECK(fields.first == 400);
+  CHECK(fields.second.find("takes no fields") != std::string::npos);
+  CHECK(f.send("POST", "/api/refine", "").first == 200);
   // A time budget per update: the edit answers with its shape so far and says so.
   json budget = f.ok("PATCH", "/api/params", R"({"seconds": 1e-9, "iterations": 5000})");
   CHECK(budget.at("params").at("seconds").get<double>() == 1e-9);

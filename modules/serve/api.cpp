@@ -577,7 +577,7 @@ ApiResponse Api::route(const ApiRequest& r) {
   }
   if (p == "/api/refine") {
     methods({"POST"});
-    return refine();
+    return refine(r);
   }
   throw RequestError(404, "no endpoint " + p);
 }
@@ -630,7 +630,10 @@ ApiResponse Api::edit(const ApiRequest& r) {
   return out;
 }
 
-ApiResponse Api::refine() {
+ApiResponse Api::refine(const ApiRequest& r) {
+  // It takes no fields: an empty body or {}, checked before the lock as every body.
+  if (r.body.find_first_not_of(" \t\r\n") != std::string::npos && !parseObject(r.body).empty())
+    throw RequestError(400, "POST /api/refine takes no fields (an empty body or {})");
   std::lock_guard<std::mutex> lock(mutex_);
   // An edit waiting for the lock brings newer results; an idle refinement yields to it.
   if (waiting_.load() == 0 && session_->refine()) session_->update();

@@ -37,7 +37,8 @@
 //                            "targets": [[x, y, z], ...], "range", "magnitude", "name"}
 //   POST   /api/refine       continue an unconverged deformation (and reference) from the
 //                            current shapes for another "iterations" (the page sends it while
-//                            idle until "converged"); a no-op when converged or an edit waits
+//                            idle until "converged"); a no-op when converged or an edit waits;
+//                            no fields (an empty body or {})
 //   DELETE /api/handles/ID   remove one handle
 //   PUT    /api/handles      replace all handles by a handle file (the `--handles` JSON format)
 //   DELETE /api/handles      remove all handles
@@ -126,7 +127,7 @@ class Api {
   ApiResponse route(const ApiRequest& request);
   ApiResponse edit(const ApiRequest& request);
   // POST /api/refine: continues an unconverged deformation for another `iterations`.
-  ApiResponse refine();
+  ApiResponse refine(const ApiRequest& r);
   ApiResponse read(const ApiRequest& request);
   /// Runs the update unless a newer edit is waiting; true when this call left results for
   /// the session's current version.
