@@ -244,6 +244,10 @@ TEST_CASE("serve API: bad requests get a 4xx and leave the session unchanged", "
       {"PATCH", "/api/params", "[1, 2]", 400},
       {"PATCH", "/api/params", "", 400},
       {"PUT", "/api/handles", R"({"handles": [{"vertices": [5000]}]})", 422},
+      // The body is a handle file: beyond malformed JSON, its errors are --handles' own (422).
+      {"PUT", "/api/handles", R"({"handles": [{"vertices": "all"}]})", 422},
+      {"PUT", "/api/handles", R"({"handles": [{"vertices": [5], "colour": 1}]})", 422},
+      {"PUT", "/api/handles", "{not json", 400},
       {"GET", "/api/field?name=colour", "", 422},
       {"GET", "/api/export/image.png?width=100000", "", 422},
       {"GET", "/api/nothing", "", 404},

@@ -51,11 +51,14 @@
 // The state document: {"version" (accepted edits), "computed_version" (the edit the results
 // belong to), "params" (as PATCH /api/params), "handles": [{"id", "name", "vertices",
 // "targets", "range", "magnitude"}], "metrics": {"d_max", "d_ave", "d_dev", "dist" (null
-// without a reference), "inverted", "energy"}, "update": the last update {"solved", "message",
+// without a reference), "inverted", "energy", "energy_relaxed" (true: "energy" is eq. 3 with
+// the targets relaxed at this shape; false: an unconverged run's own energy, an upper bound)}, "update":
+// the last update {"solved", "message",
 // "seconds", "weights_seconds", "deformation_seconds", "reference_seconds",
 // "metrics_seconds", "iterations", "converged", "criterion" (how far from converged:
 // DeformationResult::criterion), "weights_work", "deformation_work",
-// "reference_work" ("none"|"solve"|"numeric"|"analysis"|"evaluate"), "weights",
+// "reference_work" ("none"|"solve"|"numeric"|"analysis"|"evaluate"; the weights also
+// "superpose": a new magnitude under the same matrix, no solve), "weights",
 // "deformation", "reference": counters {"symbolic", "numeric", "solves"} of that update},
 // "totals": the counters summed over the session, "mesh": {"name", "kind", "vertices"}}.
 // Edit responses add "coalesced": true when a newer edit was waiting, so this one did not
@@ -66,7 +69,9 @@
 // ApiOptions::maxBodyBytes; 422 a value the session rejects (vertex id out of range or in
 // another handle, non-finite or far-away position, parameter out of its range, unknown name)
 // or a picked points file named by PUT /api/handles that cannot be read (one message for every
-// cause, read before the session is locked); 500 an unexpected internal failure, without its
+// cause, read before the session is locked). PUT /api/handles reads its body as `--handles`
+// reads a handle file: malformed JSON is 400, every other error in it (a field of the wrong
+// type or unknown, as well as a bad value) is 422 with the message `--handles` gives; 500 an unexpected internal failure, without its
 // text (the session is kept). HttpServer adds 403 (foreign Host or Origin) and 415 (a write
 // body that is not application/json) before a request reaches the Api. A state whose weights or
 // deformation cannot be computed (e.g. a component without handles) is accepted: "update"
