@@ -35,18 +35,21 @@
 /// these levels stay in the library (tests/test_api_surface.cpp checks it).
 ///
 /// Every error is a diffreg::Error subclass (core/error.h) with a one-line message naming the
-/// file, element or parameter at fault. `<diffreg/version.h>` defines DIFFREG_VERSION_MAJOR,
+/// file, element or parameter at fault. Warnings go to stderr ("diffreg: warning: ..."):
+/// setQuiet(true) silences them, and a WarningCollector (core/log.h) takes a thread's warnings
+/// for the host to pass on. `<diffreg/version.h>` defines DIFFREG_VERSION_MAJOR,
 /// DIFFREG_VERSION_MINOR, DIFFREG_VERSION_PATCH and DIFFREG_VERSION_STRING.
 #pragma once
 
 #include <diffreg/version.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
 #include <diffreg/deformation/deformer.h>
-#include <diffreg/deformation/options.h>
 #include <diffreg/deformation/metrics.h>
-#include <diffreg/engine/edit_engine.h>
+#include <diffreg/deformation/options.h>
 #include <diffreg/discretization/discretization.h>
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/handles/handles.h>
 #include <diffreg/mesh/io.h>
 #include <diffreg/mesh/mesh.h>
@@ -55,9 +58,9 @@
 #include <diffreg/pipeline/filter.h>
 #include <diffreg/pipeline/params.h>
 #include <diffreg/pipeline/pipeline.h>
-#include "plugins.h"
 #include <diffreg/solver/backend.h>
 #include <diffreg/weights/diffusion.h>
 #include <diffreg/weights/rbf.h>
+#include "plugins.h"
 
 #include <diffreg/openmesh.h>

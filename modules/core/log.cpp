@@ -7,10 +7,23 @@
 namespace diffreg {
 namespace {
 std::atomic<bool> g_quiet{false};
-}
+thread_local WarningCollector* t_collector = nullptr;
+}  // namespace
 
 void warn(const std::string& message) {
-  if (!g_quiet) std::cerr << "diffreg: warning: " << terminalLine(message) << "\n";
+  if (t_collector)
+    t_collector->messages_.push_back(message);
+  else if (!g_quiet)
+    std::cerr << "diffreg: warning: " << terminalLine(message) << "\n";
+}
+
+WarningCollector::WarningCollector() : outer_(t_collector) { t_collector = this; }
+WarningCollector::~WarningCollector() { t_collector = outer_; }
+
+std::vector<std::string> WarningCollector::take() {
+  std::vector<std::string> out;
+  out.swap(messages_);
+  return out;
 }
 void info(const std::string& message) {
   if (!g_quiet) std::cerr << "diffreg: " << terminalLine(message) << "\n";

@@ -2,11 +2,32 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace diffreg {
 
-/// Prints "diffreg: warning: <message>" on stderr unless quiet mode is on.
+/// Prints "diffreg: warning: <message>" on stderr unless quiet mode is on, or hands the message
+/// to this thread's WarningCollector when one is alive (quiet or not).
 void warn(const std::string& message);
+
+/// While alive, collects the warnings warn() is given on the thread that made it, instead of
+/// printing them: a host with its own warnings (the Python module: Python's `warnings`) passes
+/// them on. Collectors nest (the innermost one collects); warnings on other threads print.
+class WarningCollector {
+ public:
+  WarningCollector();
+  ~WarningCollector();
+  WarningCollector(const WarningCollector&) = delete;
+  WarningCollector& operator=(const WarningCollector&) = delete;
+  /// The messages collected so far, in order; the collector keeps collecting.
+  std::vector<std::string> take();
+
+ private:
+  friend void warn(const std::string& message);
+  std::vector<std::string> messages_;
+  WarningCollector* outer_;
+};
+
 /// Prints "diffreg: <message>" on stderr unless quiet mode is on.
 void info(const std::string& message);
 void setQuiet(bool quiet);

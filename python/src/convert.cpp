@@ -395,6 +395,31 @@ std::string paramDoc(const std::string& filter, const std::vector<std::string>& 
   return out.str();
 }
 
+namespace {
+PyObject* g_warning = nullptr;  // diffreg.DiffregWarning, alive as long as the module
+}  // namespace
+
+void registerWarnings(py::module_& m) {
+  g_warning = PyErr_NewExceptionWithDoc(
+      "diffreg.DiffregWarning",
+      "A warning of the diffreg library (a file read with repairs, an unconverged run, ...).",
+      PyExc_UserWarning, nullptr);
+  if (!g_warning) throw py::error_already_set();
+  m.add_object("DiffregWarning", py::handle(g_warning));
+}
+
+PyWarnings::~PyWarnings() noexcept(false) {
+  const bool raising = std::uncaught_exceptions() > 0;
+  for (const std::string& message : collector.take()) {
+    if (PyErr_WarnEx(g_warning ? g_warning : PyExc_UserWarning, message.c_str(), 1) == 0) continue;
+    if (raising) {  // the call's own error goes on; this one is dropped
+      PyErr_Clear();
+      continue;
+    }
+    throw py::error_already_set();
+  }
+}
+
 void registerExceptions() {
   py::register_exception_translator([](std::exception_ptr p) {
     try {

@@ -8,6 +8,7 @@
 // without a copy (column-major, i.e. Fortran-ordered, for matrices).
 #pragma once
 
+#include <diffreg/core/log.h>
 #include <diffreg/handles/handles.h>
 #include <diffreg/mesh/mesh.h>
 #include <diffreg/pipeline/filter.h>
@@ -82,5 +83,19 @@ std::string paramSignature(const std::string& filter, const std::vector<std::str
 /// SingularSystem and MissingProperty become ValueError, IoError OSError, with the message the
 /// CLI prints after "diffreg: error: ".
 void registerExceptions();
+
+/// The call guard of every function and method of the module: the library's warnings during
+/// the call (WarningCollector) are issued after it through Python's `warnings` module, as
+/// diffreg.DiffregWarning (a UserWarning), so that Python code can filter, record or raise
+/// them. One that the filters make an error is raised, unless the call already raises.
+struct PyWarnings {
+  WarningCollector collector;
+  PyWarnings() = default;
+  PyWarnings(const PyWarnings&) = delete;
+  PyWarnings& operator=(const PyWarnings&) = delete;
+  ~PyWarnings() noexcept(false);
+};
+/// Adds DiffregWarning to the module (before any call issues one).
+void registerWarnings(py::module_& m);
 
 }  // namespace diffreg::python

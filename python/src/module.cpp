@@ -299,8 +299,8 @@ void bindWeights(py::module_& m, const std::string& filter, const std::string& d
                const py::object& ranges, const py::object& magnitudes, const py::kwargs& kwargs) {
         return weightsOf(V, E, handles, ranges, magnitudes, filter, kwargs);
       },
-      py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("ranges") = py::none(),
-      py::arg("magnitudes") = py::none(),
+      py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"), py::arg("handles"),
+      py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
       (filter + "(V, E, handles, ranges=None, magnitudes=None" + paramSignature(filter) +
        ") -> weights (n,)\n\n" + description + "\n\n" + paramDoc(filter))
           .c_str());
@@ -308,8 +308,8 @@ void bindWeights(py::module_& m, const std::string& filter, const std::string& d
 
 // deform() and measure(): the deformation of arrays and its metrics.
 void bindDeformation(py::module_& m) {
-  m.def("deform", &deformArrays, py::arg("V"), py::arg("E"), py::arg("handles"), py::arg("targets"),
-        py::arg("weights") = py::none(),
+  m.def("deform", &deformArrays, py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"),
+        py::arg("handles"), py::arg("targets"), py::arg("weights") = py::none(),
         ("deform(V, E, handles, targets, weights=None" + paramSignature("deform") +
          ") -> (X, info)\n\n"
          "Deforms the mesh from its rest shape V with the handle vertices moved to their "
@@ -321,8 +321,8 @@ void bindDeformation(py::module_& m) {
          "numeric, solves and their seconds, params.\n\n" +
          paramDoc("deform"))
             .c_str());
-  m.def("measure", &measureArrays, py::arg("V"), py::arg("E"), py::arg("X"),
-        py::arg("weights") = py::none(), py::arg("reference") = py::none(),
+  m.def("measure", &measureArrays, py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"),
+        py::arg("X"), py::arg("weights") = py::none(), py::arg("reference") = py::none(),
         py::arg("start_targets") = py::none(),
         ("measure(V, E, X, weights=None, reference=None, start_targets=None" +
          paramSignature("deform", {"local_step", "acceleration", "iterations", "tolerance"}) +
@@ -341,19 +341,22 @@ void bindDeformation(py::module_& m) {
 
 // read_mesh(), read_handles() and write_mesh(): the tool's file formats as arrays.
 void bindFiles(py::module_& m) {
-  m.def("read_mesh", &readArrays, py::arg("path"), py::arg("properties") = false,
+  m.def("read_mesh", &readArrays, py::call_guard<PyWarnings>(), py::arg("path"),
+        py::arg("properties") = false,
         "read_mesh(path, properties=False) -> (V, E) or (V, E, vertex_properties, "
         "element_properties)\n\nReads OBJ, OFF, PLY, OM, Medit .mesh or TetGen .node/.ele "
         "with the tool's checks: V (n, 3) float64, E (m, 3) triangles or (m, 4) tets, int64. "
         "properties=True adds dicts name -> array of the double properties the file keeps (an "
         ".om file written by the tool keeps diffreg:weight, diffreg:distortion, ...). Raises "
         "OSError for an unreadable file, ValueError for an invalid mesh.");
-  m.def("read_handles", &readHandleFile, py::arg("path"), py::arg("V"), py::arg("E"),
+  m.def("read_handles", &readHandleFile, py::call_guard<PyWarnings>(), py::arg("path"),
+        py::arg("V"), py::arg("E"),
         "read_handles(path, V, E) -> (handles, targets, ranges, magnitudes, names)\n\nReads "
         "a handle file (the tool's --handles JSON) against the rest shape (V, E): the vertex "
         "ids and (k_j, 3) targets of each handle, ready for deform() and diffuse_weights().");
-  m.def("write_mesh", &writeArrays, py::arg("path"), py::arg("V"), py::arg("E"),
-        py::arg("vertex_properties") = py::none(), py::arg("element_properties") = py::none(),
+  m.def("write_mesh", &writeArrays, py::call_guard<PyWarnings>(), py::arg("path"), py::arg("V"),
+        py::arg("E"), py::arg("vertex_properties") = py::none(),
+        py::arg("element_properties") = py::none(),
         py::arg("vertex_quality") = std::string(prop::weight),
         py::arg("face_quality") = std::string(prop::distortion), py::arg("colors") = true,
         "write_mesh(path, V, E, vertex_properties=None, element_properties=None, "
@@ -366,10 +369,10 @@ void bindFiles(py::module_& m) {
 
 // run() and filters(): whole pipelines of the tool's filters and their tables.
 void bindPipeline(py::module_& m) {
-  m.def("run", &runPipeline, py::arg("mesh"), py::arg("filters") = py::list(),
-        py::arg("handles") = py::none(), py::arg("targets") = py::none(),
-        py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
-        py::arg("script") = py::none(),
+  m.def("run", &runPipeline, py::call_guard<PyWarnings>(), py::arg("mesh"),
+        py::arg("filters") = py::list(), py::arg("handles") = py::none(),
+        py::arg("targets") = py::none(), py::arg("ranges") = py::none(),
+        py::arg("magnitudes") = py::none(), py::arg("script") = py::none(),
         "run(mesh, filters=[], handles=None, targets=None, ranges=None, magnitudes=None, "
         "script=None) -> dict\n\n"
         "Runs a pipeline of the diffreg tool's filters, given as its --filter strings (e.g. "
@@ -380,7 +383,7 @@ void bindPipeline(py::module_& m) {
         "first (the tool's -s). Every step is checked before any runs. Returns V, E, "
         "vertex_properties, element_properties (dicts of arrays, e.g. 'diffreg:weight') and "
         "report (the tool's --report JSON as a dict).");
-  m.def("filters", &filterTables,
+  m.def("filters", &filterTables, py::call_guard<PyWarnings>(),
         "filters() -> list\n\nEvery filter of the diffreg tool with its description and "
         "parameter table (name, type, default as text, choices, range, help).");
 }
@@ -394,6 +397,7 @@ PYBIND11_MODULE(diffreg, m) {
   py::options options;
   options.disable_function_signatures();  // the docstrings carry them, from the filter tables
   registerExceptions();
+  registerWarnings(m);
 
   m.doc() =
       "Regularized variational mesh deformation with diffused non-uniform weights (Zhu, Li, "
@@ -402,7 +406,9 @@ PYBIND11_MODULE(diffreg, m) {
       "tets, integer. Handles are a list of vertex-id arrays, one per handle. Parameters have "
       "the names, defaults and checks of the `diffreg` tool's filters (see filters()). Errors "
       "raise ValueError (invalid parameter, mesh or system) or OSError (files) with the "
-      "tool's one-line message.";
+      "tool's one-line message. Warnings (a file read with repairs, a run stopped "
+      "unconverged, ...) are issued through Python's warnings module as DiffregWarning, a "
+      "UserWarning, after the call that gave them.";
   m.attr("__version__") = DIFFREG_VERSION_STRING;
 
   bindWeights(m, "diffuse_weights",

@@ -285,23 +285,26 @@ void bindDiffusionWeights(py::module_& m) {
        "handle the first time, none after). `stats` counts them.\n\n" +
        paramDoc("diffuse_weights"))
           .c_str())
-      .def(py::init<const py::object&, const py::object&, const py::kwargs&>(), py::arg("V"),
-           py::arg("E"))
-      .def("set_handles", &PyDiffusionWeights::setHandles, py::arg("handles"),
-           py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
+      .def(py::init<const py::object&, const py::object&, const py::kwargs&>(),
+           py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"))
+      .def("set_handles", &PyDiffusionWeights::setHandles, py::call_guard<PyWarnings>(),
+           py::arg("handles"), py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
            "set_handles(handles, ranges=None, magnitudes=None)\n\nHandle vertex sets (a list "
            "of vertex-id arrays) with ranges r_j in [1e-6, 1e6] and magnitudes m_j in [0, 1] "
            "(default 1).")
-      .def("set_range", &PyDiffusionWeights::setRange, py::arg("handle"), py::arg("r"),
+      .def("set_range", &PyDiffusionWeights::setRange, py::call_guard<PyWarnings>(),
+           py::arg("handle"), py::arg("r"),
            "set_range(handle, r)\n\nThe range r_j of handle j (0-based).")
-      .def("set_magnitude", &PyDiffusionWeights::setMagnitude, py::arg("handle"), py::arg("m"),
+      .def("set_magnitude", &PyDiffusionWeights::setMagnitude, py::call_guard<PyWarnings>(),
+           py::arg("handle"), py::arg("m"),
            "set_magnitude(handle, m)\n\nThe magnitude m_j of handle j (0-based).")
-      .def("set_params", &PyDiffusionWeights::setParams,
+      .def("set_params", &PyDiffusionWeights::setParams, py::call_guard<PyWarnings>(),
            ("set_params(**params)\n\nChanges any of the diffuse_weights parameters (the others "
             "keep their values).\n\n" +
             paramDoc("diffuse_weights"))
                .c_str())
-      .def("solve", &PyDiffusionWeights::solve, "solve() -> weights (n,)")
+      .def("solve", &PyDiffusionWeights::solve, py::call_guard<PyWarnings>(),
+           "solve() -> weights (n,)")
       .def_property_readonly("params", &PyDiffusionWeights::params,
                              "The current parameters as the tool's text values.")
       .def_property_readonly("absolute_time", &PyDiffusionWeights::absoluteTime,
@@ -324,49 +327,56 @@ void bindDeformationSession(py::module_& m) {
        paramDoc("deform"))
           .c_str())
       .def(py::init<const py::object&, const py::object&, const py::object&, const py::kwargs&>(),
-           py::arg("V"), py::arg("E"), py::arg("weights") = py::none())
-      .def("set_handles", &PyDeformationSession::setHandles, py::arg("handles"),
+           py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"),
+           py::arg("weights") = py::none())
+      .def("set_handles", &PyDeformationSession::setHandles, py::call_guard<PyWarnings>(),
+           py::arg("handles"),
            "set_handles(handles)\n\nConstrained vertices, a list of vertex-id arrays (one per "
            "handle); their targets reset to the rest positions.")
-      .def("set_targets", &PyDeformationSession::setTargets, py::arg("targets"),
+      .def("set_targets", &PyDeformationSession::setTargets, py::call_guard<PyWarnings>(),
+           py::arg("targets"),
            "set_targets(targets)\n\nOne (k_j, 3) array per handle, or one array stacked handle "
            "by handle.")
       .def("set_regularization", &PyDeformationSession::setRegularization,
-           py::arg("regularization"), py::arg("beta") = py::none(), py::arg("weights") = py::none(),
+           py::call_guard<PyWarnings>(), py::arg("regularization"), py::arg("beta") = py::none(),
+           py::arg("weights") = py::none(),
            "set_regularization(regularization, beta=None, weights=None)\n\n'none', 'uniform' "
            "(with beta, default the deform filter's) or 'nonuniform' (with weights, one per "
            "vertex).")
-      .def("set_beta", &PyDeformationSession::setBeta, py::arg("beta"),
-           "set_beta(beta)\n\nUniform regularization with this beta.")
-      .def("set_weights", &PyDeformationSession::setWeights, py::arg("weights"),
+      .def("set_beta", &PyDeformationSession::setBeta, py::call_guard<PyWarnings>(),
+           py::arg("beta"), "set_beta(beta)\n\nUniform regularization with this beta.")
+      .def("set_weights", &PyDeformationSession::setWeights, py::call_guard<PyWarnings>(),
+           py::arg("weights"),
            "set_weights(weights)\n\nNon-uniform regularization with these vertex weights.")
-      .def("set_time_budget", &PyDeformationSession::setTimeBudget, py::arg("seconds"),
+      .def("set_time_budget", &PyDeformationSession::setTimeBudget, py::call_guard<PyWarnings>(),
+           py::arg("seconds"),
            "set_time_budget(seconds)\n\nSeconds each solve, solve_from or resume may iterate "
            "(0: no limit, the default): the run stops unconverged after the first iteration "
            "that leaves less time than it took itself, and resume() continues it with the "
            "steps of one run. For interactive "
            "use; where it stops depends on the machine.")
-      .def("solve", &PyDeformationSession::solve, py::arg("iterations") = py::none(),
-           py::arg("tolerance") = py::none(),
+      .def("solve", &PyDeformationSession::solve, py::call_guard<PyWarnings>(),
+           py::arg("iterations") = py::none(), py::arg("tolerance") = py::none(),
            ("solve(iterations=None, tolerance=None) -> (X, info)\n\nFrom the rest shape. X "
             "(n, 3); info: energies, iterations, converged, criterion, accelerated_iterations, "
             "initial_guess, seconds and the session's counters. " +
             limitsDoc)
                .c_str())
-      .def("solve_from", &PyDeformationSession::solveFrom, py::arg("initial"),
-           py::arg("iterations") = py::none(), py::arg("tolerance") = py::none(),
+      .def("solve_from", &PyDeformationSession::solveFrom, py::call_guard<PyWarnings>(),
+           py::arg("initial"), py::arg("iterations") = py::none(),
+           py::arg("tolerance") = py::none(),
            ("solve_from(initial, iterations=None, tolerance=None) -> (X, info)\n\nLike solve(), "
             "starting from the positions `initial` (n, 3), e.g. the previous result while "
             "dragging. " +
             limitsDoc)
                .c_str())
-      .def("resume", &PyDeformationSession::resume, py::arg("iterations") = py::none(),
-           py::arg("tolerance") = py::none(),
+      .def("resume", &PyDeformationSession::resume, py::call_guard<PyWarnings>(),
+           py::arg("iterations") = py::none(), py::arg("tolerance") = py::none(),
            ("resume(iterations=None, tolerance=None) -> (X, info)\n\nContinues the last solve "
             "where it stopped (as one long run); solves afresh when nothing can be continued. " +
             limitsDoc)
                .c_str())
-      .def("last_targets", &PyDeformationSession::lastTargets,
+      .def("last_targets", &PyDeformationSession::lastTargets, py::call_guard<PyWarnings>(),
            "last_targets() -> array or None\n\nThe targets of the shape the last run stopped "
            "at: (m d, d), the d x d block T_k^T of each element in its d rows, d the mesh's "
            "dimension (2 planar, 3 otherwise). measure(..., start_targets=...) relaxes the "

@@ -4,6 +4,7 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -252,6 +253,28 @@ def test_one_session_shared_by_threads():
 
 
 # ---- errors ---------------------------------------------------------------------------------------
+
+def test_warnings_go_through_the_warnings_module(tmp_path, capfd):
+    path = tmp_path / "extra.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nfoo bar\nf 1 2 3\n")
+    with pytest.warns(diffreg.DiffregWarning, match="no OBJ statement") as record:
+        diffreg.read_mesh(str(path))
+    assert issubclass(diffreg.DiffregWarning, UserWarning)
+    assert record[0].filename == __file__  # issued at the caller's line
+    # An unconverged run says so, in a session method as in a function.
+    V, E, handles, targets, _, _ = scenario("bar.obj", "bar-bend.json")
+    with pytest.warns(diffreg.DiffregWarning, match="not converged"):
+        diffreg.deform(V, E, handles, targets, iterations=2)
+    # Nothing of it reaches stderr, and the warnings filters apply: "error" raises.
+    assert "warning" not in capfd.readouterr().err
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(diffreg.DiffregWarning, match="no OBJ statement"):
+            diffreg.read_mesh(str(path))
+        warnings.simplefilter("ignore")
+        V2, _ = diffreg.read_mesh(str(path))
+    assert V2.shape == (3, 3)
+
 
 def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
     V, E = square()
