@@ -90,6 +90,16 @@ TEST_CASE("diffreg compare --rbf clamps the summed RBF weights unless clamp is g
   REQUIRE(r.code == 0);
   CHECK(r.out.find("| rbf |") != std::string::npos);
   CHECK(std::count(r.out.begin(), r.out.end(), '\n') == 6);  // header, rule, four variants
+  // Six panels in a 3 x 2 grid: both weights (diffused and RBF) and the four variants. The
+  // last slot holds a panel (five panels left it empty).
+  const Image picture = readPng((s.dir / "c.png").string());
+  REQUIRE(picture.width == 3 * 120 + 4 * 10);
+  REQUIRE(picture.height == 2 * 100 + 3 * 10);
+  int drawn = 0;
+  for (int y = 10 + 110; y < 10 + 110 + 100; ++y)
+    for (int x = 10 + 2 * 130; x < 10 + 2 * 130 + 120; ++x)
+      if (picture.get(x, y) != colors::white) ++drawn;
+  CHECK(drawn > 1000);
   // Unclamped on request: deform names the vertex farthest above 1 and the remedy.
   const ToolRun plain = s.run(run + "-o d.png --rbf 'rbf_weights clamp=false' -q");
   INFO(plain.err);

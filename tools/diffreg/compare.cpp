@@ -32,7 +32,8 @@ const char* kCompareUsage =
     "The same edit without regularization, with uniform regularization and with non-uniform\n"
     "regularization by the diffused weights (and by RBF weights with --rbf), as in the paper's\n"
     "Fig. 6/7 and Table 1. Prints the metrics as a Markdown table; -o draws the rest shape with\n"
-    "its weights and every result coloured by distortion on one shared scale. The uniform beta\n"
+    "its weights (with --rbf, the RBF weights beside them on one scale) and every result\n"
+    "coloured by distortion on one shared scale. The uniform beta\n"
     "defaults to the peak of the weights, so that both regularizations have the same peak.\n";
 
 /// One column of the comparison.
@@ -76,7 +77,8 @@ std::string markdownTable(const std::vector<Variant>& variants) {
   return md.str();
 }
 
-/// Rest shape with the weights and handles, then every variant by distortion on one scale.
+/// Rest shape with the weights and handles (and, with --rbf, with the RBF weights beside them on
+/// one scale), then every variant by distortion on one scale.
 Image comparePicture(const Document& rest, const Document& weighted,
                      const std::vector<Variant>& variants, int width, int height, int up) {
   Eigen::AlignedBox3d frame = meshBounds(rest.mesh);
@@ -93,14 +95,32 @@ Image comparePicture(const Document& rest, const Document& weighted,
   base.reserveColorBar = true;
   base.upAxis = up >= 0 ? up : uprightAxis(frame);  // 3D views only
 
+  // The weights of the variants with a weights step other than the diffused ones (--rbf), on
+  // the rest shape.
+  std::vector<std::pair<std::string, Mesh>> others;
+  double peak = weighted.mesh.vertexScalar(prop::weight).maxCoeff();
+  for (const Variant& v : variants) {
+    if (v.name != "rbf") continue;
+    Mesh shape = rest.mesh;
+    const Eigen::VectorXd w = v.result.mesh.vertexScalar(prop::weight);
+    shape.setVertexScalar(prop::weight, w);
+    peak = std::max(peak, w.maxCoeff());
+    others.emplace_back("rest shape, " + v.weights[0].filter, std::move(shape));
+  }
+
   std::vector<Image> panels;
   RenderOptions weights = base;
   weights.property = prop::weight;
   weights.rangeMin = 0.0;
+  if (!others.empty()) weights.rangeMax = peak;  // one scale for the weights compared
   weights.colormap = Colormap::Viridis;
-  weights.title = "rest shape, weights";
+  weights.title = others.empty() ? "rest shape, weights" : "rest shape, diffused weights";
   weights.colorBarLabel = "weight";
   panels.push_back(renderMesh(weighted.mesh, weights));
+  for (const auto& [title, shape] : others) {
+    weights.title = title;
+    panels.push_back(renderMesh(shape, weights));
+  }
   for (const Variant& v : variants) {
     RenderOptions o = base;
     o.property = prop::distortion;
