@@ -264,11 +264,18 @@ TEST_CASE("bad .mlx scripts: one line naming the file, the line and the valid ch
       {script("<Param name=\"flag\" type=\"RichBool\" value=\"maybe\"/>"),
        {"'flag' = 'maybe' is not one of: true, false"}},
       {script("<Param name=\"mode\" type=\"RichEnum\" value=\"3\"/>"),
-       {"s.mlx:4: ", "'mode' = '3' is not an index of the choices (0 = alpha, 1 = beta, 2 = gamma)"}},
+       {"s.mlx:4: ",
+        "'mode' = '3' is not an index of the choices (0 = alpha, 1 = beta, 2 = gamma)"}},
       {script("<Param name=\"mode\" type=\"RichEnum\" value=\"beta\"/>"),
        {"is not an index of the choices (0 = alpha, 1 = beta, 2 = gamma)"}},
       {script("<Param name=\"mode\" type=\"RichEnum\" value=\"1\" enum_val1=\"delta\"/>"),
        {"names the choice 'delta' (enum_val1), which is not one of: alpha, beta, gamma"}},
+      // The script's own count of its choices bounds the index.
+      {script("<Param name=\"mode\" type=\"RichEnum\" value=\"2\" enum_cardinality=\"2\" "
+              "enum_val0=\"alpha\" enum_val1=\"beta\" enum_val2=\"gamma\"/>"),
+       {"'mode' = '2' is not an index below its enum_cardinality 2"}},
+      {script("<Param name=\"mode\" type=\"RichEnum\" value=\"0\" enum_cardinality=\"many\"/>"),
+       {"enum_cardinality=\"many\", which is not a count"}},
       {script("<Param name=\"count\" type=\"RichInt\" value=\"3\"/>\n"
               "<Param name=\"count\" type=\"RichInt\" value=\"4\"/>"),
        {"s.mlx:5: ", "parameter 'count' given twice"}},

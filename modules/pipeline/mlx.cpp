@@ -174,6 +174,14 @@ class ScriptReader {
       if (!parseIndex(value, &index)) {
         fail(culprit + "is not an index of the choices (" + indexedChoices(*spec) + ")");
       }
+      // MeshLab writes how many choices the script lists: the index must be one of them.
+      if (const std::string* count = param.attribute("enum_cardinality")) {
+        long n = 0;
+        if (!parseIndex(*count, &n) || n < 1)
+          fail(culprit + "has enum_cardinality=\"" + *count + "\", which is not a count");
+        if (index < 0 || index >= n)
+          fail(culprit + "is not an index below its enum_cardinality " + *count);
+      }
       if (const std::string* label = param.attribute("enum_val" + std::to_string(index))) {
         // The script names its choice: take it by name, so a script whose list is ordered
         // differently still means what it says.
