@@ -294,6 +294,19 @@ TEST_CASE("A planar discretization of points off their plane is refused, not fla
                     Catch::Contains("planar mesh lies in a plane z = const") &&
                         Catch::Contains("z spans 0.5") && Catch::Contains("as a surface"));
   CHECK(Discretization(MeshKind::Surface, P, F).dim() == 3);
+  // A mesh read as planar passes: the same points decide as in Mesh, unused vertices included
+  // (one far away makes a tiny z spread of the used ones planar for both).
+  Eigen::MatrixXd Q(5, 3);
+  Q << 0, 0, 0, 1, 0, 0, 1, 1, 1e-11, 0, 1, 0, 1000, 0, 0;
+  TriMesh tri;
+  for (Eigen::Index i = 0; i < Q.rows(); ++i)
+    tri.add_vertex(TriMesh::Point(Q(i, 0), Q(i, 1), Q(i, 2)));
+  tri.add_face(tri.vertex_handle(0), tri.vertex_handle(1), tri.vertex_handle(2));
+  tri.add_face(tri.vertex_handle(0), tri.vertex_handle(2), tri.vertex_handle(3));
+  const Mesh far(std::move(tri));
+  REQUIRE(far.kind() == MeshKind::Planar);
+  CHECK(Discretization(far).dim() == 2);
+  CHECK(Discretization(MeshKind::Planar, Q, F).numElements() == 2);
 }
 
 TEST_CASE("A mesh too large or too small for double precision is refused by its size",

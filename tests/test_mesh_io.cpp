@@ -1012,4 +1012,29 @@ TEST_CASE("PLY of a tet mesh: boundary faces carry their tet's value", "[mesh][i
   CHECK(tenths == 3);
   CHECK(twenties == 3);
   for (int i = 0; i < 5; ++i) CHECK(ply.rows.at("vertex")[i][3] == Approx(0.25 * i));
+  // Read back, the boundary surface has the weights again; its faces' values are their tets',
+  // not a distortion of the faces, so they do not come back as one.
+  const Mesh back = readMesh(tmp / "two.ply");
+  REQUIRE(back.hasVertexScalar(prop::weight));
+  CHECK(back.vertexScalar(prop::weight)(4) == 1.0);
+  CHECK_FALSE(back.hasElementScalar(prop::distortion));
+}
+
+TEST_CASE("PLY quality names that cannot be written or read back say so", "[mesh][io]") {
+  TempDir tmp;
+  Mesh mesh = readMesh(tmp.file("q.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+  mesh.setVertexScalar("my weight", Eigen::Vector3d(0.1, 0.2, 0.3));
+  WriteOptions spaced;
+  spaced.vertexQuality = "my weight";
+  const std::string err = stderrOf([&] { writeMesh(tmp / "s.ply", mesh, spaced); });
+  CHECK(err.find("'my weight' goes out as quality without its name") != std::string::npos);
+  CHECK_FALSE(readMesh(tmp / "s.ply").hasVertexScalar("my weight"));
+  // A header naming it in bytes other than printable ASCII: warned about, not kept.
+  std::string text = slurp(tmp / "s.ply");
+  text.insert(text.find("element vertex"), "comment diffreg vertex quality w\xe9ight\n");
+  const std::string path = tmp.file("named.ply", text);
+  Mesh back;
+  const std::string warned = stderrOf([&] { back = readMesh(path); });
+  CHECK(warned.find("is not printable ASCII; the quality is not kept") != std::string::npos);
+  CHECK(back.vertexScalarNames().empty());
 }

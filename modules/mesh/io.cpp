@@ -451,6 +451,12 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
     } else if (ext == "ply") {
       auto vq = scalar(true, options.vertexQuality);
       auto fq = scalar(false, options.faceQuality);
+      for (const auto& [given, name] : {std::pair{vq.has_value(), &options.vertexQuality},
+                                        std::pair{fq.has_value(), &options.faceQuality}})
+        if (given && !oneWord(*name))
+          warn("writing " + quote(path) + ": the property " + quote(*name) +
+               " goes out as quality without its name (not one word of printable ASCII), so "
+               "reading the file back will not restore it");
       if (mesh.isTet()) {
         const BoundarySurface b = boundarySurface(mesh.tet());
         std::optional<Eigen::VectorXd> bvq, bfq;
@@ -462,8 +468,10 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
           bfq = Eigen::VectorXd(b.element.size());
           for (size_t k = 0; k < b.element.size(); ++k) (*bfq)[k] = (*fq)[b.element[k]];
         }
+        // The boundary's vertices carry the tets' vertex values and read back as them; its
+        // faces carry their tet's value, which is no value of the faces: left unnamed.
         writePly(out, b.points, b.faces, bvq ? &*bvq : nullptr, bfq ? &*bfq : nullptr,
-                 options.colors);
+                 options.colors, options.vertexQuality);
       } else {
         writePly(out, mesh.points(), mesh.elements(), vq ? &*vq : nullptr, fq ? &*fq : nullptr,
                  options.colors, options.vertexQuality, options.faceQuality);

@@ -626,9 +626,17 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
       if (t.size() != 1 || t[0] != "ply") throw InvalidMesh(where + ": not a PLY file (no 'ply')");
       continue;
     }
-    if (t.size() == 5 && t[0] == "comment" && t[1] == "diffreg" && t[3] == "quality") {
-      if (t[2] == "vertex") h.vertexQualityName = std::string(t[4]);
-      if (t[2] == "face") h.faceQualityName = std::string(t[4]);
+    if (t.size() == 5 && t[0] == "comment" && t[1] == "diffreg" && t[3] == "quality" &&
+        (t[2] == "vertex" || t[2] == "face")) {
+      // A property name is printable ASCII (as the writer and the .om reader have it).
+      const bool printable = std::all_of(t[4].begin(), t[4].end(), [](char c) {
+        return static_cast<unsigned char>(c) > 0x20 && static_cast<unsigned char>(c) < 0x7f;
+      });
+      if (!printable)
+        warn(where + ": the " + std::string(t[2]) + " quality's name " + visible(t[4]) +
+             " is not printable ASCII; the quality is not kept");
+      else
+        (t[2] == "vertex" ? h.vertexQualityName : h.faceQualityName) = std::string(t[4]);
     }
     if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
     if (t[0] == "end_header") break;

@@ -1,6 +1,7 @@
 #include "convert.h"
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/text.h>
 #include <diffreg/mesh/halfedges.h>
 #include <diffreg/mesh/io.h>
 
@@ -408,16 +409,29 @@ void registerWarnings(py::module_& m) {
   m.add_object("DiffregWarning", py::handle(g_warning));
 }
 
-PyWarnings::~PyWarnings() noexcept(false) {
-  const bool raising = std::uncaught_exceptions() > 0;
-  for (const std::string& message : collector.take()) {
-    if (PyErr_WarnEx(g_warning ? g_warning : PyExc_UserWarning, message.c_str(), 1) == 0) continue;
-    if (raising) {  // the call's own error goes on; this one is dropped
+namespace {
+
+// Issues `messages`; with `raising` (an error already on its way) one made an error is dropped.
+void issueWarnings(const std::vector<std::string>& messages, bool raising) {
+  for (const std::string& message : messages) {
+    // As on a terminal: one line, valid UTF-8 (a file name may hold any bytes).
+    if (PyErr_WarnEx(g_warning ? g_warning : PyExc_UserWarning, terminalLine(message).c_str(), 1) ==
+        0)
+      continue;
+    if (raising) {
       PyErr_Clear();
       continue;
     }
     throw py::error_already_set();
   }
+}
+
+}  // namespace
+
+void PyWarnings::issue() { issueWarnings(collector.take(), false); }
+
+PyWarnings::~PyWarnings() noexcept(false) {
+  issueWarnings(collector.take(), std::uncaught_exceptions() > 0);
 }
 
 void registerExceptions() {

@@ -88,11 +88,15 @@ void registerExceptions();
 /// the call (WarningCollector) are issued after it through Python's `warnings` module, as
 /// diffreg.DiffregWarning (a UserWarning), so that Python code can filter, record or raise
 /// them. One that the filters make an error is raised, unless the call already raises.
+/// Constructors issue them themselves (issue()) while they still own the new object: raised
+/// from the guard, pybind11 would drop the object without destroying it.
 struct PyWarnings {
   WarningCollector collector;
   PyWarnings() = default;
   PyWarnings(const PyWarnings&) = delete;
   PyWarnings& operator=(const PyWarnings&) = delete;
+  /// Issues the warnings collected so far; raises one the filters make an error.
+  void issue();
   ~PyWarnings() noexcept(false);
 };
 /// Adds DiffregWarning to the module (before any call issues one).

@@ -285,8 +285,13 @@ void bindDiffusionWeights(py::module_& m) {
        "handle the first time, none after). `stats` counts them.\n\n" +
        paramDoc("diffuse_weights"))
           .c_str())
-      .def(py::init<const py::object&, const py::object&, const py::kwargs&>(),
-           py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"))
+      .def(py::init([](const py::object& V, const py::object& E, const py::kwargs& kwargs) {
+             PyWarnings warnings;
+             auto made = std::make_unique<PyDiffusionWeights>(V, E, kwargs);
+             warnings.issue();  // a warning made an error drops `made` with it
+             return made;
+           }),
+           py::arg("V"), py::arg("E"))
       .def("set_handles", &PyDiffusionWeights::setHandles, py::call_guard<PyWarnings>(),
            py::arg("handles"), py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
            "set_handles(handles, ranges=None, magnitudes=None)\n\nHandle vertex sets (a list "
@@ -326,9 +331,14 @@ void bindDeformationSession(py::module_& m) {
        "session's factorizations).\n\n" +
        paramDoc("deform"))
           .c_str())
-      .def(py::init<const py::object&, const py::object&, const py::object&, const py::kwargs&>(),
-           py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"),
-           py::arg("weights") = py::none())
+      .def(py::init([](const py::object& V, const py::object& E, const py::object& weights,
+                       const py::kwargs& kwargs) {
+             PyWarnings warnings;
+             auto made = std::make_unique<PyDeformationSession>(V, E, weights, kwargs);
+             warnings.issue();  // a warning made an error drops `made` with it
+             return made;
+           }),
+           py::arg("V"), py::arg("E"), py::arg("weights") = py::none())
       .def("set_handles", &PyDeformationSession::setHandles, py::call_guard<PyWarnings>(),
            py::arg("handles"),
            "set_handles(handles)\n\nConstrained vertices, a list of vertex-id arrays (one per "

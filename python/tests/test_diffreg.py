@@ -261,16 +261,22 @@ def test_warnings_go_through_the_warnings_module(tmp_path, capfd):
         diffreg.read_mesh(str(path))
     assert issubclass(diffreg.DiffregWarning, UserWarning)
     assert record[0].filename == __file__  # issued at the caller's line
-    # An unconverged run says so, in a session method as in a function.
+    # An unconverged deform() says so; so does a session's constructor about an unused vertex.
     V, E, handles, targets, _, _ = scenario("bar.obj", "bar-bend.json")
     with pytest.warns(diffreg.DiffregWarning, match="not converged"):
         diffreg.deform(V, E, handles, targets, iterations=2)
+    spare = np.vstack([V, [[100.0, 100.0, 0.0]]])
+    with pytest.warns(diffreg.DiffregWarning, match="unreferenced"):
+        diffreg.DeformationSession(spare, E)
     # Nothing of it reaches stderr, and the warnings filters apply: "error" raises.
     assert "warning" not in capfd.readouterr().err
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         with pytest.raises(diffreg.DiffregWarning, match="no OBJ statement"):
             diffreg.read_mesh(str(path))
+        for session in (diffreg.DeformationSession, diffreg.DiffusionWeights):
+            with pytest.raises(diffreg.DiffregWarning, match="unreferenced"):
+                session(spare, E)
         warnings.simplefilter("ignore")
         V2, _ = diffreg.read_mesh(str(path))
     assert V2.shape == (3, 3)

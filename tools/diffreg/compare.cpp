@@ -77,9 +77,29 @@ std::string markdownTable(const std::vector<Variant>& variants) {
   return md.str();
 }
 
+/// The largest weight at a vertex the elements of the rest shape `doc` use.
+double peakWeight(const Eigen::VectorXd& w, const Document& doc) {
+  const std::vector<bool> used = doc.mesh.referenced();
+  double peak = 0.0;
+  for (int i = 0; i < w.size(); ++i)
+    if (used[i]) peak = std::max(peak, w[i]);
+  return peak;
+}
+
+double peakWeight(const Document& weighted, const Document& doc) {
+  return peakWeight(weighted.mesh.vertexScalar(prop::weight), doc);
+}
+
+/// A weights step as a panel title: the filter and the values it was given.
+std::string stepTitle(const Step& step) {
+  std::string title = step.filter;
+  for (const auto& [key, value] : step.values) title += " " + key + "=" + value;
+  return title;
+}
+
 /// Rest shape with the weights and handles (and, with --rbf, with the RBF weights beside them on
 /// one scale), then every variant by distortion on one scale.
-Image comparePicture(const Document& rest, const Document& weighted,
+Image comparePicture(const Document& rest, const Document& weighted, const Step& weightsStep,
                      const std::vector<Variant>& variants, int width, int height, int up) {
   Eigen::AlignedBox3d frame = meshBounds(rest.mesh);
   double top = 0.0;
@@ -98,14 +118,14 @@ Image comparePicture(const Document& rest, const Document& weighted,
   // The weights of the variants with a weights step other than the diffused ones (--rbf), on
   // the rest shape.
   std::vector<std::pair<std::string, Mesh>> others;
-  double peak = weighted.mesh.vertexScalar(prop::weight).maxCoeff();
+  double peak = peakWeight(weighted, rest);
   for (const Variant& v : variants) {
     if (v.name != "rbf") continue;
     Mesh shape = rest.mesh;
     const Eigen::VectorXd w = v.result.mesh.vertexScalar(prop::weight);
     shape.setVertexScalar(prop::weight, w);
-    peak = std::max(peak, w.maxCoeff());
-    others.emplace_back("rest shape, " + v.weights[0].filter, std::move(shape));
+    peak = std::max(peak, peakWeight(w, rest));
+    others.emplace_back("rest shape, " + stepTitle(v.weights[0]), std::move(shape));
   }
 
   std::vector<Image> panels;
@@ -114,7 +134,7 @@ Image comparePicture(const Document& rest, const Document& weighted,
   weights.rangeMin = 0.0;
   if (!others.empty()) weights.rangeMax = peak;  // one scale for the weights compared
   weights.colormap = Colormap::Viridis;
-  weights.title = others.empty() ? "rest shape, weights" : "rest shape, diffused weights";
+  weights.title = others.empty() ? "rest shape, weights" : "rest shape, " + stepTitle(weightsStep);
   weights.colorBarLabel = "weight";
   panels.push_back(renderMesh(weighted.mesh, weights));
   for (const auto& [title, shape] : others) {
@@ -217,16 +237,6 @@ Document weightedRest(const Document& doc, const Step& weightsStep) {
   return weighted;
 }
 
-/// The largest weight at a vertex the elements of the rest shape `doc` use.
-double peakWeight(const Document& weighted, const Document& doc) {
-  const Eigen::VectorXd w = weighted.mesh.vertexScalar(prop::weight);
-  const std::vector<bool> used = doc.mesh.referenced();
-  double peak = 0.0;
-  for (int i = 0; i < w.size(); ++i)
-    if (used[i]) peak = std::max(peak, w[i]);
-  return peak;
-}
-
 /// The columns: no, uniform (with `beta`) and non-uniform regularization, and with --rbf the
 /// RBF weights.
 std::vector<Variant> compareVariants(const CompareSettings& s, double beta) {
@@ -306,7 +316,7 @@ int runCompare(int argc, char** argv) {
   writeTableOutputs(
       vm, s.outputs, markdownTable(variants),
       [&](const std::string& path) {
-        writePng(path, comparePicture(doc, weighted, variants, s.width, s.height, s.up));
+        writePng(path, comparePicture(doc, weighted, s.weights, variants, s.width, s.height, s.up));
       },
       [&] { return compareReport(variants, beta, peak); });
   return 0;
