@@ -68,3 +68,16 @@ TEST_CASE("terminalLine escapes what a terminal would act on and bounds the leng
   const std::string beta = std::string(99, 'a') + "\xce\xb2";
   CHECK(terminalLine(beta, 100) == beta);  // a character is never split
 }
+
+TEST_CASE("printableAscii takes printable ASCII, spaces included, and nothing else",
+          "[core][text]") {
+  using diffreg::printableAscii;
+  CHECK(printableAscii("diffreg:weight"));
+  CHECK(printableAscii("my weight"));
+  CHECK(printableAscii("~!"));
+  CHECK_FALSE(printableAscii(""));
+  CHECK_FALSE(printableAscii("w\xe9ight"));
+  CHECK_FALSE(printableAscii("a\tb"));
+  CHECK_FALSE(printableAscii("esc\x1b[31m"));
+  CHECK_FALSE(printableAscii("del\x7f"));
+}

@@ -51,6 +51,12 @@ std::string escapeNonUtf8(const std::string& bytes) {
   return out;
 }
 
+bool printableAscii(std::string_view name) {
+  for (const unsigned char c : name)
+    if (c < 0x20 || c > 0x7e) return false;
+  return !name.empty();
+}
+
 std::string terminalLine(const std::string& text, size_t maxBytes) {
   std::string out;
   out.reserve(std::min(text.size(), maxBytes) + 32);

@@ -2,8 +2,13 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 namespace diffreg {
+
+/// Whether `name` is a non-empty run of printable ASCII (0x20 to 0x7e, spaces included): what
+/// the mesh formats accept as a property name.
+bool printableAscii(std::string_view name);
 
 /// `bytes` with every byte that is not part of a valid UTF-8 sequence written as "\xNN" (and a
 /// backslash that starts such an escape doubled), so any file name survives in JSON and can

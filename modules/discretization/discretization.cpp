@@ -335,7 +335,7 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   // The same test as Mesh's planar kind, on the same points (every vertex, used or not).
   if (kind == MeshKind::Planar && P3.rows() > 0) {
     const Eigen::Vector3d all = P3.colwise().maxCoeff() - P3.colwise().minCoeff();
-    if (all(2) > 0.0 && !(all(2) <= 1e-12 * all.norm())) {
+    if (all(2) > 0.0 && !planarSpread(all(2), all.norm())) {
       char text[96];
       std::snprintf(text, sizeof text, "%.3g (bounding-box diagonal %.3g)", all(2), all.norm());
       throw InvalidMesh(std::string("discretization: a planar mesh lies in a plane z = const, "

@@ -5,6 +5,7 @@
 #include <diffreg/core/file.h>
 #include <diffreg/core/log.h>
 #include <diffreg/core/parallel.h>
+#include <diffreg/core/text.h>
 #include <diffreg/mesh/boundary.h>
 #include <diffreg/mesh/om.h>
 #include <diffreg/mesh/parse.h>
@@ -234,8 +235,7 @@ void writePoint(TextOut& out, const Points& points, int i) {
 
 /// Whether a property name can stand in a PLY comment as one word: printable ASCII, no space.
 bool oneWord(const std::string& name) {
-  return !name.empty() &&
-         std::all_of(name.begin(), name.end(), [](char c) { return c > ' ' && c < 127; });
+  return printableAscii(name) && name.find(' ') == std::string::npos;
 }
 
 /// ASCII PLY: points (double; n x 3, an Eigen matrix or view), optional vertex quality (double)

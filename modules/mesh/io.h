@@ -38,9 +38,10 @@ struct WriteOptions {
 /// Writes OBJ/OFF/PLY/OM for triangle meshes, Medit .mesh for tet meshes (and PLY for a tet
 /// mesh's boundary surface), coordinates and qualities as doubles (text: the shortest form
 /// that reads back exactly). The file is written to a temporary name beside `path` and
-/// renamed into place, so a failed write leaves any existing file untouched. A triangle mesh's
-/// PLY names the properties its qualities hold in header comments ("comment diffreg vertex
-/// quality diffreg:weight"), which readMesh reads them back as.
+/// renamed into place, so a failed write leaves any existing file untouched. A PLY names the
+/// properties its qualities hold in header comments ("comment diffreg vertex quality
+/// diffreg:weight"), which readMesh reads them back as; a tet mesh's boundary names its vertex
+/// quality only (its faces carry their tets' values).
 /// \throw IoError unknown or unsupported extension for the mesh kind, write failure.
 /// \throw InvalidMesh non-finite coordinates or written property values (nothing is written).
 void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});

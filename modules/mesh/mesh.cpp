@@ -79,7 +79,7 @@ Mesh::Mesh(std::unique_ptr<TriMesh> tri) : tri_(std::move(tri)) {
     double diag2 = 0.0;
     for (int c = 0; c < 3; ++c) diag2 += (hi[c] - lo[c]) * (hi[c] - lo[c]);
     const double spread = hi[2] - lo[2];
-    if (spread == 0.0 || spread <= 1e-12 * std::sqrt(diag2)) kind_ = MeshKind::Planar;
+    if (planarSpread(spread, std::sqrt(diag2))) kind_ = MeshKind::Planar;
   }
   collectDoubleProps(tri_->vprops_begin(), tri_->vprops_end(), vertexNames_);
   collectDoubleProps(tri_->fprops_begin(), tri_->fprops_end(), elementNames_);

@@ -32,6 +32,12 @@ struct TetMesh {
 
 enum class MeshKind { Planar, Surface, Tet };
 
+/// Whether points whose bounding box spans `zSpread` in z and has diagonal `diagonal` lie in a
+/// plane z = const as a planar mesh's must: the test Mesh decides its kind by.
+inline bool planarSpread(double zSpread, double diagonal) {
+  return zSpread == 0.0 || zSpread <= 1e-12 * diagonal;
+}
+
 /// "planar", "surface" or "tet".
 const char* toString(MeshKind kind);
 

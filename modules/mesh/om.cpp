@@ -2,6 +2,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
+#include <diffreg/core/text.h>
 #include <diffreg/mesh/parse.h>
 
 #include <cmath>
@@ -105,12 +106,6 @@ class Cursor {
   const std::string& source_;
   size_t at_ = 0;
 };
-
-bool printable(const std::string& s) {
-  for (unsigned char c : s)
-    if (c < 0x20 || c > 0x7e) return false;
-  return !s.empty();
-}
 
 /// Everything read from the chunks, before the faces are built.
 class OmReader {
@@ -273,7 +268,7 @@ class OmReader {
     const bool wanted = (c.entity == kVertex || c.entity == kFace) && c.named &&
                         typeName == "double" && block == 8 * n;
     if (!wanted) return in_.skip(block, 1, where(c));
-    if (!printable(c.name)) {
+    if (!printableAscii(c.name)) {
       warn(src_ + ": skipped a property whose name is not printable ASCII");
       return in_.skip(block, 1, where(c));
     }

@@ -2,6 +2,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
+#include <diffreg/core/text.h>
 #include <diffreg/mesh/halfedges.h>
 #include <diffreg/mesh/polygon.h>
 
@@ -629,10 +630,7 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
     if (t.size() == 5 && t[0] == "comment" && t[1] == "diffreg" && t[3] == "quality" &&
         (t[2] == "vertex" || t[2] == "face")) {
       // A property name is printable ASCII (as the writer and the .om reader have it).
-      const bool printable = std::all_of(t[4].begin(), t[4].end(), [](char c) {
-        return static_cast<unsigned char>(c) > 0x20 && static_cast<unsigned char>(c) < 0x7f;
-      });
-      if (!printable)
+      if (!printableAscii(t[4]))
         warn(where + ": the " + std::string(t[2]) + " quality's name " + visible(t[4]) +
              " is not printable ASCII; the quality is not kept");
       else

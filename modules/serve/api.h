@@ -52,8 +52,8 @@
 // belong to), "params" (as PATCH /api/params), "handles": [{"id", "name", "vertices",
 // "targets", "range", "magnitude"}], "metrics": {"d_max", "d_ave", "d_dev", "dist" (null
 // without a reference), "inverted", "energy", "energy_relaxed" (true: "energy" is eq. 3 with
-// the targets relaxed at this shape; false: an unconverged run's own energy, an upper bound)}, "update":
-// the last update {"solved", "message",
+// the targets relaxed at this shape; false: an unconverged run's own energy, an upper bound)},
+// "update": the last update {"solved", "message",
 // "seconds", "weights_seconds", "deformation_seconds", "reference_seconds",
 // "metrics_seconds", "iterations", "converged", "criterion" (how far from converged:
 // DeformationResult::criterion), "weights_work", "deformation_work",
@@ -71,11 +71,11 @@
 // or a picked points file named by PUT /api/handles that cannot be read (one message for every
 // cause, read before the session is locked). PUT /api/handles reads its body as `--handles`
 // reads a handle file: malformed JSON is 400, every other error in it (a field of the wrong
-// type or unknown, as well as a bad value) is 422 with the message `--handles` gives; 500 an unexpected internal failure, without its
-// text (the session is kept). HttpServer adds 403 (foreign Host or Origin) and 415 (a write
-// body that is not application/json) before a request reaches the Api. A state whose weights or
-// deformation cannot be computed (e.g. a component without handles) is accepted: "update"
-// then says "solved": false with the reason, and the previous results stay.
+// type or unknown, as well as a bad value) is 422 with the message `--handles` gives; 500 an
+// unexpected internal failure, without its text (the session is kept). HttpServer adds 403 (foreign
+// Host or Origin) and 415 (a write body that is not application/json) before a request reaches the
+// Api. A state whose weights or deformation cannot be computed (e.g. a component without handles)
+// is accepted: "update" then says "solved": false with the reason, and the previous results stay.
 //
 // Thread-safe: edits are serialized; an edit that finds a newer edit waiting skips its own
 // update (coalescing), so a fast drag never queues stale solves.

@@ -33,8 +33,8 @@ const char* kCompareUsage =
     "regularization by the diffused weights (and by RBF weights with --rbf), as in the paper's\n"
     "Fig. 6/7 and Table 1. Prints the metrics as a Markdown table; -o draws the rest shape with\n"
     "its weights (with --rbf, the RBF weights beside them on one scale) and every result\n"
-    "coloured by distortion on one shared scale. The uniform beta\n"
-    "defaults to the peak of the weights, so that both regularizations have the same peak.\n";
+    "coloured by distortion on one shared scale. The uniform beta defaults to the peak of the\n"
+    "weights, so that both regularizations have the same peak.\n";
 
 /// One column of the comparison.
 struct Variant {
