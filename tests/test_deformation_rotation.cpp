@@ -179,6 +179,30 @@ TEST_CASE("the progress callback sees every iteration's energy", "[deformation][
     }
 }
 
+TEST_CASE("setProgress installs, replaces and removes the callback of later solves",
+          "[deformation][session]") {
+  const auto disc = makeBar(MeshKind::Surface);
+  const std::vector<int> handles = bothEnds(*disc);
+  int first = 0, second = 0;
+  DeformationOptions o;
+  o.progress = [&first](int, double, double) { ++first; };
+  DeformationSession s(*disc, o);
+  s.setHandles(handles);
+  s.setTargets(liftFarEnd(rows(disc->rest(), handles), 1.0));
+  const DeformationResult a = s.solve(6, 0.0);
+  CHECK(first == a.iterations);
+  s.setProgress([&second](int iteration, double, double) { second = iteration; });
+  const DeformationResult b = s.solve(6, 0.0);
+  CHECK(first == a.iterations);  // replaced
+  CHECK(second == b.iterations);
+  s.setProgress(nullptr);
+  second = 0;
+  const DeformationResult c = s.solve(6, 0.0);
+  CHECK(c.iterations == b.iterations);
+  CHECK(second == 0);
+  CHECK(first == a.iterations);
+}
+
 TEST_CASE("solveFrom continues from a given shape: a drag needs few iterations",
           "[deformation][session]") {
   for (MeshKind kind : kAllKinds) {

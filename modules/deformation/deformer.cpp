@@ -538,6 +538,9 @@ void DeformationSession::setRegularization(Regularization mode, double beta,
 void DeformationSession::setBeta(double beta) { core_->setBeta(beta); }
 void DeformationSession::setHandleBasis(bool on) { core_->setHandleBasis(on); }
 void DeformationSession::setTimeBudget(double seconds) { core_->setTimeBudget(seconds); }
+void DeformationSession::setProgress(std::function<void(int, double, double)> progress) {
+  core_->setProgress(std::move(progress));
+}
 void DeformationSession::setWeights(const Eigen::VectorXd& weights) { core_->setWeights(weights); }
 DeformationResult DeformationSession::solve(int maxIterations, double relTolerance) {
   return core_->solve(maxIterations, relTolerance);

@@ -58,6 +58,10 @@ class DeformationSession {
   /// depends on the machine's speed.
   /// \throw InvalidParameter for a negative or non-finite budget.
   void setTimeBudget(double seconds);
+  /// DeformationOptions::progress for the later solves (an empty function: none). An exception
+  /// it throws ends the run and propagates; the session stays usable, with nothing to continue
+  /// (resume() then solves afresh).
+  void setProgress(std::function<void(int iteration, double energy, double criterion)> progress);
 
   /// Minimizes the regularized energy with the handles at their targets.
   /// \throw InvalidParameter before any setHandles() or for maxIterations < 1 or a negative

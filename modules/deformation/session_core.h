@@ -33,6 +33,9 @@ class DeformationCore {
   void setWeights(const Eigen::VectorXd& weights);
   void setHandleBasis(bool on);
   void setTimeBudget(double seconds);
+  void setProgress(std::function<void(int, double, double)> progress) {
+    options_.progress = std::move(progress);
+  }
 
   DeformationResult solve(int maxIterations, double relTolerance);
   DeformationResult solve() { return solve(options_.maxIterations, options_.relTolerance); }

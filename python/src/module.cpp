@@ -2,6 +2,7 @@
 // which run the same filters (and parameter tables) as the `diffreg` command-line tool, plus
 // the editing sessions (sessions.cpp).
 #include "convert.h"
+#include "progress.h"
 
 #include <diffreg/core/error.h>
 #include <diffreg/deformation/metrics.h>
@@ -28,18 +29,32 @@ Document makeDocument(Mesh mesh, HandleSet handles) {
   return doc;
 }
 
-// Applies one built-in filter with the keyword arguments as its parameters (validated and
-// completed from its table), the GIL released while it works. Returns the filter's result as
-// the CLI's report entry (data, params, solver counters).
-py::dict applyFilter(Document& doc, const std::string& name, const py::dict& kwargs) {
-  Pipeline pipeline;
-  pipeline.add(name, toParamText(kwargs));
+// pipeline.run(doc) with the GIL released, its deformations reporting to `progress` (None or
+// a callable (iteration, energy, criterion)) and stopping at Ctrl-C (PyProgress).
+nlohmann::json runWithProgress(const Pipeline& pipeline, Document& doc,
+                               const py::object& progress) {
+  PyProgress reporter(progress);
+  const auto hook = reporter.hook();
+  doc.progress = [hook](const std::string&, int iteration, double energy, double criterion) {
+    hook(iteration, energy, criterion);
+  };
   nlohmann::json report;
   {
     py::gil_scoped_release release;
     report = pipeline.run(doc);
   }
-  return fromJson(report["filters"][0]).cast<py::dict>();
+  doc.progress = nullptr;
+  return report;
+}
+
+// Applies one built-in filter with the keyword arguments as its parameters (validated and
+// completed from its table), the GIL released while it works. Returns the filter's result as
+// the CLI's report entry (data, params, solver counters).
+py::dict applyFilter(Document& doc, const std::string& name, const py::dict& kwargs,
+                     const py::object& progress = py::none()) {
+  Pipeline pipeline;
+  pipeline.add(name, toParamText(kwargs));
+  return fromJson(runWithProgress(pipeline, doc, progress)["filters"][0]).cast<py::dict>();
 }
 
 py::array weightsOf(const py::object& V, const py::object& E, const py::object& handles,
@@ -54,7 +69,7 @@ py::array weightsOf(const py::object& V, const py::object& E, const py::object& 
 
 py::tuple deformArrays(const py::object& V, const py::object& E, const py::object& handles,
                        const py::object& targets, const py::object& weights,
-                       const py::kwargs& kwargs) {
+                       const py::object& progress, const py::kwargs& kwargs) {
   Mesh mesh = toMesh(V, E);
   HandleSet set = toHandles(mesh, handles, targets, py::none(), py::none());
   const int n = mesh.numVertices();
@@ -65,7 +80,7 @@ py::tuple deformArrays(const py::object& V, const py::object& E, const py::objec
           ? py::str(kwargs["regularization"]).cast<std::string>()
           : "";
   checkWeightsFor("deform", regularization, weights);
-  py::dict info = applyFilter(doc, "deform", kwargs);
+  py::dict info = applyFilter(doc, "deform", kwargs, progress);
   return py::make_tuple(fromMatrix(doc.mesh.positions()), info);
 }
 
@@ -214,7 +229,8 @@ py::dict propertiesOf(const Mesh& mesh, bool vertex) {
 
 py::dict runPipeline(const py::object& meshArg, const py::object& filters,
                      const py::object& handles, const py::object& targets, const py::object& ranges,
-                     const py::object& magnitudes, const py::object& script) {
+                     const py::object& magnitudes, const py::object& script,
+                     const py::object& progress) {
   Document doc;
   if (py::isinstance<py::str>(meshArg)) {
     const std::string path = meshArg.cast<std::string>();
@@ -251,11 +267,7 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
     const auto [name, values] = parseFilterSpec(item.cast<std::string>());
     pipeline.add(name, values);
   }
-  nlohmann::json report;
-  {
-    py::gil_scoped_release release;
-    report = pipeline.run(doc);
-  }
+  const nlohmann::json report = runWithProgress(pipeline, doc, progress);
   py::dict out;
   out["V"] = fromMatrix(doc.mesh.positions());
   out["E"] = fromMatrix(doc.mesh.elements());
@@ -310,7 +322,8 @@ void bindWeights(py::module_& m, const std::string& filter, const std::string& d
 void bindDeformation(py::module_& m) {
   m.def("deform", &deformArrays, py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"),
         py::arg("handles"), py::arg("targets"), py::arg("weights") = py::none(),
-        ("deform(V, E, handles, targets, weights=None" + paramSignature("deform") +
+        py::arg("progress") = py::none(),
+        ("deform(V, E, handles, targets, weights=None, progress=None" + paramSignature("deform") +
          ") -> (X, info)\n\n"
          "Deforms the mesh from its rest shape V with the handle vertices moved to their "
          "targets (hard constraints), as the filter deform of the diffreg tool. targets: one "
@@ -318,8 +331,8 @@ void bindDeformation(py::module_& m) {
          "vertex, for regularization='nonuniform'. X is (n, 3) (planar meshes keep z). info "
          "is the tool's report entry: energies (per iteration), iterations, converged, "
          "criterion, initial_guess, local_step, acceleration, the solver counters symbolic, "
-         "numeric, solves and their seconds, params.\n\n" +
-         paramDoc("deform"))
+         "numeric, solves and their seconds, params. " +
+         kProgressDoc + "\n\n" + paramDoc("deform"))
             .c_str());
   m.def("measure", &measureArrays, py::call_guard<PyWarnings>(), py::arg("V"), py::arg("E"),
         py::arg("X"), py::arg("weights") = py::none(), py::arg("reference") = py::none(),
@@ -373,16 +386,19 @@ void bindPipeline(py::module_& m) {
         py::arg("filters") = py::list(), py::arg("handles") = py::none(),
         py::arg("targets") = py::none(), py::arg("ranges") = py::none(),
         py::arg("magnitudes") = py::none(), py::arg("script") = py::none(),
-        "run(mesh, filters=[], handles=None, targets=None, ranges=None, magnitudes=None, "
-        "script=None) -> dict\n\n"
-        "Runs a pipeline of the diffreg tool's filters, given as its --filter strings (e.g. "
-        "['diffuse_weights t=0.01', 'deform energy=arap regularization=nonuniform', "
-        "'measure']). mesh: a mesh file path or a tuple (V, E). handles: a handle file path "
-        "(the tool's --handles JSON) or a list of vertex-id arrays with targets, ranges, "
-        "magnitudes as for deform(). script: a MeshLab .mlx filter script whose steps run "
-        "first (the tool's -s). Every step is checked before any runs. Returns V, E, "
-        "vertex_properties, element_properties (dicts of arrays, e.g. 'diffreg:weight') and "
-        "report (the tool's --report JSON as a dict).");
+        py::arg("progress") = py::none(),
+        ("run(mesh, filters=[], handles=None, targets=None, ranges=None, magnitudes=None, "
+         "script=None, progress=None) -> dict\n\n"
+         "Runs a pipeline of the diffreg tool's filters, given as its --filter strings (e.g. "
+         "['diffuse_weights t=0.01', 'deform energy=arap regularization=nonuniform', "
+         "'measure']). mesh: a mesh file path or a tuple (V, E). handles: a handle file path "
+         "(the tool's --handles JSON) or a list of vertex-id arrays with targets, ranges, "
+         "magnitudes as for deform(). script: a MeshLab .mlx filter script whose steps run "
+         "first (the tool's -s). Every step is checked before any runs. Returns V, E, "
+         "vertex_properties, element_properties (dicts of arrays, e.g. 'diffreg:weight') and "
+         "report (the tool's --report JSON as a dict). " +
+         std::string(kProgressDoc))
+            .c_str());
   m.def("filters", &filterTables, py::call_guard<PyWarnings>(),
         "filters() -> list\n\nEvery filter of the diffreg tool with its description and "
         "parameter table (name, type, default as text, choices, range, help).");

@@ -2,6 +2,7 @@
 // DeformationSession own their discretization and keep their factorizations between calls;
 // `stats` counts the work (symbolic analyses, numeric factorizations, solves).
 #include "convert.h"
+#include "progress.h"
 
 #include <diffreg/core/error.h>
 #include "deform/deform.h"
@@ -215,21 +216,25 @@ class PyDeformationSession {
     const SessionLock lock(mutex_);
     session_->setWeights(toVector(weights, "weights", shape_->mesh.numVertices()));
   }
-  py::tuple solve(const py::object& iterations, const py::object& tolerance) {
+  py::tuple solve(const py::object& iterations, const py::object& tolerance,
+                  const py::object& progress) {
     const SessionLock lock(mutex_);
-    return run(iterations, tolerance, [&](int cap, double tol) { return session_->solve(cap, tol); });
+    return run(iterations, tolerance, progress,
+               [&](int cap, double tol) { return session_->solve(cap, tol); });
   }
   py::tuple solveFrom(const py::object& initial, const py::object& iterations,
-                      const py::object& tolerance) {
+                      const py::object& tolerance, const py::object& progress) {
     const SessionLock lock(mutex_);
     const Eigen::MatrixXd X0 =
         toMatrix(initial, "initial", shape_->mesh.numVertices(), 3).leftCols(shape_->disc.dim());
-    return run(iterations, tolerance,
+    return run(iterations, tolerance, progress,
                [&](int cap, double tol) { return session_->solveFrom(X0, cap, tol); });
   }
-  py::tuple resume(const py::object& iterations, const py::object& tolerance) {
+  py::tuple resume(const py::object& iterations, const py::object& tolerance,
+                   const py::object& progress) {
     const SessionLock lock(mutex_);
-    return run(iterations, tolerance, [&](int cap, double tol) { return session_->resume(cap, tol); });
+    return run(iterations, tolerance, progress,
+               [&](int cap, double tol) { return session_->resume(cap, tol); });
   }
   py::dict stats() const {
     const SessionLock lock(mutex_);
@@ -237,10 +242,18 @@ class PyDeformationSession {
   }
 
  private:
-  /// `solve(cap, tolerance)` with the limits checked and the GIL released while it runs.
+  /// `solve(cap, tolerance)` with the limits checked, the GIL released while it runs and its
+  /// iterations reported to `progress` (PyProgress; the hook is removed however the run ends).
   template <class Solve>
-  py::tuple run(const py::object& iterations, const py::object& tolerance, Solve&& solve) {
+  py::tuple run(const py::object& iterations, const py::object& tolerance,
+                const py::object& progress, Solve&& solve) {
     const auto [cap, tol] = limits(iterations, tolerance);
+    PyProgress reporter(progress);
+    struct Hooked {
+      DeformationSession& session;
+      ~Hooked() { session.setProgress(nullptr); }
+    } hooked{*session_};
+    session_->setProgress(reporter.hook());
     DeformationResult r;
     {
       py::gil_scoped_release release;
@@ -320,7 +333,8 @@ void bindDiffusionWeights(py::module_& m) {
 // DeformationSession: the regularized deformation that keeps its factorization between solves.
 void bindDeformationSession(py::module_& m) {
   const std::string limitsDoc =
-      "iterations, tolerance: None = the session's (from the constructor's parameters).";
+      "iterations, tolerance: None = the session's (from the constructor's parameters). " +
+      std::string(kProgressDoc);
   py::class_<PyDeformationSession>(
       m, "DeformationSession",
       ("DeformationSession(V, E, weights=None" + paramSignature("deform") +
@@ -367,22 +381,27 @@ void bindDeformationSession(py::module_& m) {
            "use; where it stops depends on the machine.")
       .def("solve", &PyDeformationSession::solve, py::call_guard<PyWarnings>(),
            py::arg("iterations") = py::none(), py::arg("tolerance") = py::none(),
-           ("solve(iterations=None, tolerance=None) -> (X, info)\n\nFrom the rest shape. X "
+           py::arg("progress") = py::none(),
+           ("solve(iterations=None, tolerance=None, progress=None) -> (X, info)\n\nFrom the rest "
+            "shape. X "
             "(n, 3); info: energies, iterations, converged, criterion, accelerated_iterations, "
             "initial_guess, seconds and the session's counters. " +
             limitsDoc)
                .c_str())
       .def("solve_from", &PyDeformationSession::solveFrom, py::call_guard<PyWarnings>(),
            py::arg("initial"), py::arg("iterations") = py::none(),
-           py::arg("tolerance") = py::none(),
-           ("solve_from(initial, iterations=None, tolerance=None) -> (X, info)\n\nLike solve(), "
+           py::arg("tolerance") = py::none(), py::arg("progress") = py::none(),
+           ("solve_from(initial, iterations=None, tolerance=None, progress=None) -> (X, "
+            "info)\n\nLike solve(), "
             "starting from the positions `initial` (n, 3), e.g. the previous result while "
             "dragging. " +
             limitsDoc)
                .c_str())
       .def("resume", &PyDeformationSession::resume, py::call_guard<PyWarnings>(),
            py::arg("iterations") = py::none(), py::arg("tolerance") = py::none(),
-           ("resume(iterations=None, tolerance=None) -> (X, info)\n\nContinues the last solve "
+           py::arg("progress") = py::none(),
+           ("resume(iterations=None, tolerance=None, progress=None) -> (X, info)\n\nContinues the "
+            "last solve "
             "where it stopped (as one long run); solves afresh when nothing can be continued. " +
             limitsDoc)
                .c_str())

@@ -4,6 +4,9 @@ import json
 import os
 import subprocess
 import sys
+import threading
+import time
+import _thread
 import warnings
 
 import numpy as np
@@ -427,6 +430,71 @@ def test_deformation_session_reuses_its_factorization():
     Xf, info = session.solve_from(Xr, iterations=100)
     assert info["initial_guess"] == "given"
     assert session.stats["symbolic"] == s0["symbolic"]
+
+
+# ---- progress and interruption --------------------------------------------------------------------
+
+class Stop(Exception):
+    pass
+
+
+def test_progress_sees_every_iteration_and_its_exception_ends_the_run():
+    V, E, handles, targets, _, _ = scenario("cylinder.obj", "cylinder-twist.json")
+    seen = []
+    X, info = diffreg.deform(V, E, handles, targets,
+                             progress=lambda i, energy, criterion: seen.append((i, energy)))
+    assert info["converged"] and len(seen) == info["iterations"] > 3
+    assert [i for i, _ in seen] == list(range(1, info["iterations"] + 1))
+    assert [e for _, e in seen] == info["energies"][-len(seen):]
+    ran = []
+    out = diffreg.run((V, E), ["deform"], handles=handles, targets=targets,
+                      progress=lambda i, energy, criterion: ran.append((i, energy)))
+    assert ran == seen
+    np.testing.assert_array_equal(out["V"], X)
+
+    def stop(i, energy, criterion):
+        if i == 3:
+            raise Stop("enough")
+    with pytest.raises(Stop, match="enough"):
+        diffreg.deform(V, E, handles, targets, progress=stop)
+    with pytest.raises(Stop):
+        diffreg.run((V, E), ["deform"], handles=handles, targets=targets, progress=stop)
+    # A session stopped by its callback keeps working: nothing to continue, the next solve
+    # (without a callback: the hook went with the call) runs afresh to the same shape.
+    def session():
+        s = diffreg.DeformationSession(V, E)
+        s.set_handles(handles)
+        s.set_targets(targets)
+        return s
+    uninterrupted, _ = session().solve()
+    stopped = session()
+    with pytest.raises(Stop):
+        stopped.solve(progress=stop)
+    again, info = stopped.resume()
+    assert info["initial_guess"] != "continued" and info["converged"]
+    np.testing.assert_array_equal(again, uninterrupted)
+    session = stopped
+    with pytest.raises(Stop):
+        session.solve_from(X, progress=lambda *args: stop(3, 0, 0))
+    with pytest.raises(ValueError, match="progress"):
+        diffreg.deform(V, E, handles, targets, progress=3)
+
+
+def test_ctrl_c_stops_a_running_deformation():
+    # Plain local/global to rounding level runs for seconds here; Ctrl-C (as interrupt_main
+    # delivers it) stops it at once, as a KeyboardInterrupt, with nothing left to continue.
+    V, E, handles, targets, _, _ = scenario("cylinder.obj", "cylinder-twist.json")
+    session = diffreg.DeformationSession(V, E, acceleration="none", regularization="uniform")
+    session.set_handles(handles)
+    session.set_targets(targets)
+    timer = threading.Timer(0.2, _thread.interrupt_main)
+    with pytest.raises(KeyboardInterrupt):
+        timer.start()
+        session.solve(iterations=100000, tolerance=0)
+        time.sleep(60)  # an interrupt that came only after the solve lands here
+    timer.join()
+    X, info = session.resume(iterations=1)
+    assert info["initial_guess"] != "continued"
 
 
 # ---- the example ----------------------------------------------------------------------------------
