@@ -5,10 +5,12 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
-
+#include <vector>
 
 using namespace diffreg;
 namespace fs = std::filesystem;
@@ -108,6 +110,26 @@ TEST_CASE("diffreg compare --rbf clamps the summed RBF weights unless clamp is g
   CHECK(plain.err.find("outside [0, 1]") != std::string::npos);
   CHECK(plain.err.find("rbf_weights clamp=true") != std::string::npos);
   CHECK_FALSE(fs::exists(s.dir / "d.png"));
+}
+
+TEST_CASE("diffreg compare --up turns the 3D views: each axis its own picture, auto one of them",
+          "[cli][compare]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s("cli-compare-up");
+  std::map<std::string, std::vector<std::uint8_t>> pictures;
+  for (const std::string up : {"auto", "x", "y", "z"}) {
+    const ToolRun r = s.run("compare -i '" + shipped("cylinder.obj") + "' --handles '" +
+                            shipped("cylinder-twist.json") + "' -o " + up +
+                            ".png --size 120x100 --up " + up + " -q");
+    INFO(up << ": " << r.err);
+    REQUIRE(r.code == 0);
+    pictures[up] = readPng((s.dir / (up + ".png")).string()).rgb;
+  }
+  CHECK(pictures["x"] != pictures["y"]);
+  CHECK(pictures["y"] != pictures["z"]);
+  CHECK(pictures["x"] != pictures["z"]);
+  CHECK((pictures["auto"] == pictures["x"] || pictures["auto"] == pictures["y"] ||
+         pictures["auto"] == pictures["z"]));
 }
 
 TEST_CASE("diffreg compare: bad options exit 2 with one line and write nothing",

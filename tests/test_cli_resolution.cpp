@@ -7,9 +7,12 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <utility>
+#include <vector>
 
 using namespace diffreg;
 namespace fs = std::filesystem;
@@ -77,6 +80,24 @@ TEST_CASE("diffreg resolution: mean_edge2 weights shrink under refinement, diago
   const Image picture = readPng((s.dir / "r.png").string());
   CHECK(picture.width == 3 * 300 + 4 * 10);
   CHECK(picture.height == 3 * 200 + 4 * 10);
+}
+
+TEST_CASE("diffreg resolution --up turns the 3D views: each axis its own picture",
+          "[cli][resolution]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s("cli-resolution-up");
+  std::map<std::string, std::vector<std::uint8_t>> pictures;
+  for (const std::string up : {"x", "y", "z"}) {
+    const ToolRun r = s.run("resolution -i '" + shipped("cylinder.obj") + "' --handles '" +
+                            shipped("cylinder-twist.json") + "' -o " + up +
+                            ".png --levels 0 --size 120x100 --up " + up + " -q");
+    INFO(up << ": " << r.err);
+    REQUIRE(r.code == 0);
+    pictures[up] = readPng((s.dir / (up + ".png")).string()).rgb;
+  }
+  CHECK(pictures["x"] != pictures["y"]);
+  CHECK(pictures["y"] != pictures["z"]);
+  CHECK(pictures["x"] != pictures["z"]);
 }
 
 TEST_CASE("diffreg resolution: bad options and input exit non-zero with one line, write nothing",
