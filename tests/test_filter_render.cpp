@@ -213,6 +213,14 @@ TEST_CASE("render: smoothness with wireframe, no property, and a tet mesh by its
   for (int y = vp.y; y < vp.y + vp.h; ++y)
     for (int x = vp.x; x < vp.x + vp.w; ++x) painted += image.get(x, y) != t.background;
   CHECK(painted > vp.w * vp.h / 20);
+  // up= given: that axis, not auto's.
+  Pipeline upright;
+  upright.add("render", {{"file", dir / "tet-z.png"}, {"property", "distortion"}, {"up", "z"}});
+  upright.run(tet);
+  t.upAxis = 2;
+  const Image z = readPng(dir / "tet-z.png");
+  CHECK(sameImage(z, renderMesh(tet.mesh, t)));
+  CHECK(!sameImage(z, image));
 }
 
 TEST_CASE("render: the file is relative to the working directory and replaced atomically",
