@@ -1,5 +1,6 @@
 // Temporary files and signals (modules/core/file.h): an interrupted program leaves none of its
 // registered temporaries behind, and dies of the signal that ended it.
+#include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
 
 #include <catch2/catch.hpp>
@@ -157,5 +158,27 @@ TEST_CASE("writeFileAtomically writes through a symbolic link and keeps it", "[c
   // No temporary is left anywhere.
   for (const auto& entry : fs::recursive_directory_iterator(dir))
     CHECK(entry.path().filename().string().find(".tmp") == std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("a name with a NUL byte is refused: the system would use the name cut there",
+          "[core][file]") {
+  const fs::path dir = scratch("nul");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // "cut" exists and "cut\0.ply" would open it; writing would replace it.
+  std::ofstream(dir / "cut") << "kept";
+  const std::string named = (dir / "cut").string() + std::string(1, '\0') + ".ply";
+  CHECK_THROWS_WITH(readFileLimited(named, "mesh file", 100),
+                    Catch::Contains("mesh file") && Catch::Contains("the name has a NUL byte"));
+  CHECK_THROWS_AS(checkInputFile(named, "mesh file", 100), IoError);
+  CHECK_THROWS_WITH(
+      writeFileAtomically(named, [](std::ostream& out) { out << "replaced"; }),
+      Catch::StartsWith("cannot write") && Catch::Contains("the name has a NUL byte"));
+  std::ifstream in(dir / "cut");
+  CHECK(std::string(std::istreambuf_iterator<char>(in), {}) == "kept");
+  int entries = 0;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir)) ++entries;
+  CHECK(entries == 1);  // no temporary either
   fs::remove_all(dir);
 }

@@ -24,7 +24,8 @@ inline constexpr std::uint64_t textBytes = std::uint64_t(16) << 20;
 /// The whole content of the regular file `path`; `what` names it in messages ("handle file").
 /// Devices, FIFOs and sockets are refused before they are opened for reading.
 /// \throw IoError "cannot open WHAT 'path': ..." when it is missing, a directory, not a regular
-///        file, unreadable, or longer than `limit` bytes (also when it grows while read).
+///        file, unreadable, or longer than `limit` bytes (also when it grows while read), or when
+///        its name has a NUL byte (the system would open the name cut there).
 std::string readFileLimited(const std::string& path, const std::string& what, std::uint64_t limit);
 
 /// The size of the regular file `path`, with the same checks as readFileLimited (for readers
@@ -34,7 +35,8 @@ std::uint64_t checkInputFile(const std::string& path, const std::string& what, s
 /// The file that a write to `path` replaces: `path` itself, or, when `path` is a symbolic link,
 /// the file its links lead to (a relative link read against its own directory; the last one may
 /// name a file that does not exist yet), so that writing through a link keeps the link.
-/// \throw IoError "cannot write 'path': too many levels of symbolic links" after 40 links.
+/// \throw IoError "cannot write 'path': too many levels of symbolic links" after 40 links, or
+///        "cannot write 'path': the name has a NUL byte".
 std::string writeTarget(const std::string& path);
 
 /// Writes the file `path` all or nothing: `body` writes a new temporary file beside it
@@ -42,8 +44,9 @@ std::string writeTarget(const std::string& path);
 /// synced to disk and renamed onto `path`. Readers see the old file or the whole new one, never
 /// a part. On any failure the temporary is removed and `path` is left as it was. A `path` that is
 /// a symbolic link stays one: the file it leads to is written (writeTarget).
-/// \throw IoError "cannot write 'path': ..." when creating, writing, syncing or renaming fails or
-///        `body` throws a standard exception; an Error thrown by `body` passes unchanged.
+/// \throw IoError "cannot write 'path': ..." when the name has a NUL byte, creating, writing,
+///        syncing or renaming fails or `body` throws a standard exception; an Error thrown by
+///        `body` passes unchanged.
 void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& body);
 
 /// Temporary files that an interrupted program should not leave behind. A program that calls

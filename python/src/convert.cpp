@@ -122,6 +122,21 @@ std::vector<int> toIds(const py::handle& obj, const char* what, int numVertices)
   return ids;
 }
 
+bool isPath(const py::handle& value) {
+  return py::isinstance<py::str>(value) || py::isinstance<py::bytes>(value) ||
+         py::hasattr(value, "__fspath__");
+}
+
+std::string toPath(const py::handle& value, const char* what) {
+  if (!isPath(value))
+    throw InvalidParameter(std::string(what) +
+                           ": expected a file path (str, bytes or "
+                           "os.PathLike), got " +
+                           py::str(py::type::of(value).attr("__name__")).cast<std::string>());
+  // os.fspath gives str or bytes; a NUL inside is refused where the file is opened.
+  return py::module_::import("os").attr("fspath")(value).cast<std::string>();
+}
+
 Mesh toMesh(const py::handle& V, const py::handle& E) {
   const Eigen::MatrixXd P = toPositions(V, "V");
   const Eigen::MatrixXi T = toElements(E, static_cast<int>(P.rows()));
@@ -439,17 +454,17 @@ void registerExceptions() {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const IoError& e) {
-      PyErr_SetString(PyExc_OSError, e.what());
+      PyErr_SetString(PyExc_OSError, terminalLine(e.what()).c_str());
     } catch (const InvalidParameter& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
+      PyErr_SetString(PyExc_ValueError, terminalLine(e.what()).c_str());
     } catch (const InvalidMesh& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
+      PyErr_SetString(PyExc_ValueError, terminalLine(e.what()).c_str());
     } catch (const SingularSystem& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
+      PyErr_SetString(PyExc_ValueError, terminalLine(e.what()).c_str());
     } catch (const MissingProperty& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
+      PyErr_SetString(PyExc_ValueError, terminalLine(e.what()).c_str());
     } catch (const Error& e) {
-      PyErr_SetString(PyExc_RuntimeError, e.what());
+      PyErr_SetString(PyExc_RuntimeError, terminalLine(e.what()).c_str());
     }
   });
 }

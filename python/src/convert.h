@@ -44,6 +44,13 @@ Eigen::MatrixXi toElements(const py::handle& array, int numVertices);
 /// One 1-D array (or sequence) of vertex ids in [0, numVertices).
 std::vector<int> toIds(const py::handle& array, const char* what, int numVertices);
 
+/// Whether `value` names a file as Python's open() takes one: a str, bytes or os.PathLike
+/// (e.g. pathlib.Path).
+bool isPath(const py::handle& value);
+/// That file name as bytes for the library (os.fspath; str encoded as UTF-8).
+/// \throw InvalidParameter (ValueError) naming `what` when `value` is not a path.
+std::string toPath(const py::handle& value, const char* what);
+
 /// A validated diffreg Mesh from arrays (the same checks as reading a file: degenerate or
 /// inverted elements, non-manifold triangles), named "arrays" in messages.
 Mesh toMesh(const py::handle& V, const py::handle& E);
@@ -81,7 +88,7 @@ std::string paramSignature(const std::string& filter, const std::vector<std::str
 
 /// Registers the translation of diffreg's exceptions: InvalidParameter, InvalidMesh,
 /// SingularSystem and MissingProperty become ValueError, IoError OSError, with the message the
-/// CLI prints after "diffreg: error: ".
+/// CLI prints after "diffreg: error: " (terminalLine: one line, control bytes written out).
 void registerExceptions();
 
 /// The call guard of every function and method of the module: the library's warnings during

@@ -164,7 +164,8 @@ py::dict fileProperties(const Mesh& mesh, bool vertex) {
   return out;
 }
 
-py::tuple readArrays(const std::string& path, bool properties) {
+py::tuple readArrays(const py::object& file, bool properties) {
+  const std::string path = toPath(file, "path");
   Mesh mesh;
   {
     py::gil_scoped_release release;
@@ -175,7 +176,8 @@ py::tuple readArrays(const std::string& path, bool properties) {
                         fileProperties(mesh, true), fileProperties(mesh, false));
 }
 
-py::tuple readHandleFile(const std::string& path, const py::object& V, const py::object& E) {
+py::tuple readHandleFile(const py::object& file, const py::object& V, const py::object& E) {
+  const std::string path = toPath(file, "path");
   const Mesh mesh = toMesh(V, E);
   const HandleSet set = readHandles(path, mesh);
   py::list handles, targets, names;
@@ -196,9 +198,10 @@ py::tuple readHandleFile(const std::string& path, const py::object& V, const py:
   return py::make_tuple(handles, targets, vector(ranges), vector(magnitudes), names);
 }
 
-void writeArrays(const std::string& path, const py::object& V, const py::object& E,
+void writeArrays(const py::object& file, const py::object& V, const py::object& E,
                  const py::object& vertexProperties, const py::object& elementProperties,
                  const std::string& vertexQuality, const std::string& faceQuality, bool colors) {
+  const std::string path = toPath(file, "path");
   Mesh mesh = toMesh(V, E);
   if (!vertexProperties.is_none())
     for (const auto& [key, value] : vertexProperties.cast<py::dict>()) {
@@ -232,10 +235,10 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
                      const py::object& magnitudes, const py::object& script,
                      const py::object& progress) {
   Document doc;
-  if (py::isinstance<py::str>(meshArg)) {
-    const std::string path = meshArg.cast<std::string>();
-    if (py::isinstance<py::str>(handles)) {
-      doc = Document::load(path, handles.cast<std::string>());
+  if (isPath(meshArg)) {
+    const std::string path = toPath(meshArg, "mesh");
+    if (isPath(handles)) {
+      doc = Document::load(path, toPath(handles, "handles"));
     } else {
       doc = Document::load(path);
       if (!handles.is_none())
@@ -248,16 +251,16 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
     if (ve.size() != 2) throw InvalidParameter("run: mesh must be a file path or a tuple (V, E)");
     Mesh mesh = toMesh(ve[0], ve[1]);
     HandleSet set;
-    if (py::isinstance<py::str>(handles))
-      set = readHandles(handles.cast<std::string>(), mesh);
+    if (isPath(handles))
+      set = readHandles(toPath(handles, "handles"), mesh);
     else if (!handles.is_none())
       set = toHandles(mesh, handles, targets, ranges, magnitudes);
     doc = makeDocument(std::move(mesh), std::move(set));
-    if (py::isinstance<py::str>(handles)) doc.handlesPath = handles.cast<std::string>();
+    if (isPath(handles)) doc.handlesPath = toPath(handles, "handles");
   }
   Pipeline pipeline;
   if (!script.is_none())  // a MeshLab .mlx script's steps first, as the tool's -s
-    for (const Step& step : readFilterScript(script.cast<std::string>())) pipeline.add(step);
+    for (const Step& step : readFilterScript(toPath(script, "script"))) pipeline.add(step);
   if (py::isinstance<py::str>(filters))
     throw InvalidParameter(
         "run: filters must be a list of filter strings, e.g. ['diffuse_weights t=0.01']");
@@ -358,7 +361,9 @@ void bindFiles(py::module_& m) {
         py::arg("properties") = false,
         "read_mesh(path, properties=False) -> (V, E) or (V, E, vertex_properties, "
         "element_properties)\n\nReads OBJ, OFF, PLY, OM, Medit .mesh or TetGen .node/.ele "
-        "with the tool's checks: V (n, 3) float64, E (m, 3) triangles or (m, 4) tets, int64. "
+        "with the tool's checks (path: str, bytes or os.PathLike such as pathlib.Path, as for "
+        "every file this module reads or writes): V (n, 3) float64, E (m, 3) triangles or (m, 4) "
+        "tets, int64. "
         "properties=True adds dicts name -> array of the double properties the file keeps (an "
         ".om file written by the tool keeps diffreg:weight, diffreg:distortion, ...). Raises "
         "OSError for an unreadable file, ValueError for an invalid mesh.");
@@ -422,7 +427,8 @@ PYBIND11_MODULE(diffreg, m) {
       "tets, integer. Handles are a list of vertex-id arrays, one per handle. Parameters have "
       "the names, defaults and checks of the `diffreg` tool's filters (see filters()). Errors "
       "raise ValueError (invalid parameter, mesh or system) or OSError (files) with the "
-      "tool's one-line message. Warnings (a file read with repairs, a run stopped "
+      "tool's one-line message. File paths are str, bytes or os.PathLike (pathlib.Path). "
+      "Warnings (a file read with repairs, a run stopped "
       "unconverged, ...) are issued through Python's warnings module as DiffregWarning, a "
       "UserWarning, after the call that gave them.";
   m.attr("__version__") = DIFFREG_VERSION_STRING;

@@ -432,6 +432,34 @@ def test_deformation_session_reuses_its_factorization():
     assert session.stats["symbolic"] == s0["symbolic"]
 
 
+# ---- file paths ----------------------------------------------------------------------------------
+
+def test_paths_may_be_pathlib_or_bytes_and_a_nul_is_refused(tmp_path):
+    import pathlib
+    meshes = pathlib.Path(MESHES)
+    V, E = diffreg.read_mesh(meshes / "bar.obj")
+    Vb, Eb = diffreg.read_mesh(os.fsencode(mesh("bar.obj")))
+    np.testing.assert_array_equal(V, Vb)
+    handles, targets, _, _, _ = diffreg.read_handles(meshes / "bar-bend.json", V, E)
+    diffreg.write_mesh(tmp_path / "bar.ply", V, E)
+    np.testing.assert_array_equal(diffreg.read_mesh(tmp_path / "bar.ply")[0], V)
+    out = diffreg.run(meshes / "bar.obj", ["diffuse_weights"], handles=meshes / "bar-bend.json")
+    assert out["report"]["filters"][0]["name"] == "diffuse_weights"
+    out = diffreg.run((V, E), ["diffuse_weights"], handles=meshes / "bar-bend.json")
+    assert "diffreg:weight" in out["vertex_properties"]
+    with pytest.raises(ValueError, match="file path"):
+        diffreg.read_mesh(3)
+    # The system would read or write the name cut at the NUL: "cut" here.
+    (tmp_path / "cut").write_text("kept")
+    for call in (lambda: diffreg.read_mesh(str(tmp_path / "cut") + "\0.obj"),
+                 lambda: diffreg.write_mesh(str(tmp_path / "cut") + "\0.ply", V, E),
+                 lambda: diffreg.read_handles(str(tmp_path / "cut") + "\0.json", V, E)):
+        with pytest.raises(OSError, match=r"cut\\x00\..*NUL byte"):
+            call()
+    assert (tmp_path / "cut").read_text() == "kept"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bar.ply", "cut"]
+
+
 # ---- progress and interruption --------------------------------------------------------------------
 
 class Stop(Exception):
