@@ -84,6 +84,16 @@ Eigen::VectorXd toVector(const py::handle& obj, const char* what, Eigen::Index s
   return v;
 }
 
+namespace {
+
+// The entry `flat` (C order) of an index array as the caller wrote it: a uint64 above the
+// int64 range wraps in the conversion, and the message names the number given.
+std::string givenId(const py::array& a, Eigen::Index flat) {
+  return py::str(a.attr("ravel")()[py::int_(flat)]).cast<std::string>();
+}
+
+}  // namespace
+
 Eigen::MatrixXi toElements(const py::handle& obj, int numVertices) {
   const py::array a = asArray(obj, "E", true);
   if (a.ndim() != 2 || (a.shape(1) != 3 && a.shape(1) != 4) || a.shape(0) == 0)
@@ -97,7 +107,7 @@ Eigen::MatrixXi toElements(const py::handle& obj, int numVertices) {
       const long long id = c.data()[i * k + j];
       if (id < 0 || id >= numVertices)
         throw InvalidMesh("arrays: element " + std::to_string(i) + " (0-based) refers to vertex " +
-                          std::to_string(id) + ", but there are " + std::to_string(numVertices) +
+                          givenId(a, i * k + j) + ", but there are " + std::to_string(numVertices) +
                           " vertices");
       e(i, j) = static_cast<int>(id);
     }
@@ -114,9 +124,9 @@ std::vector<int> toIds(const py::handle& obj, const char* what, int numVertices)
   for (std::size_t i = 0; i < ids.size(); ++i) {
     const long long id = c.data()[i];
     if (id < 0 || id >= numVertices)
-      throw InvalidParameter(std::string(what) + ": vertex " + std::to_string(id) +
-                             " out of range (the mesh has " + std::to_string(numVertices) +
-                             " vertices)");
+      throw InvalidParameter(
+          std::string(what) + ": vertex " + givenId(a, static_cast<Eigen::Index>(i)) +
+          " out of range (the mesh has " + std::to_string(numVertices) + " vertices)");
     ids[i] = static_cast<int>(id);
   }
   return ids;

@@ -303,6 +303,12 @@ def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
         diffreg.diffuse_weights(V, E, [0, 1])
     with pytest.raises(ValueError, match="out of range"):
         diffreg.diffuse_weights(V, E, [[9]])
+    # An unsigned id past the int64 range is named as given, not as the wrapped negative.
+    big = np.uint64(2**63)
+    with pytest.raises(ValueError, match="vertex 9223372036854775808 out of range"):
+        diffreg.diffuse_weights(V, E, [np.array([big])])
+    with pytest.raises(ValueError, match="refers to vertex 9223372036854775808,"):
+        diffreg.diffuse_weights(V, E.astype(np.uint64) + big, [[0]])
     with pytest.raises(ValueError, match="'tt'.*t"):
         diffreg.diffuse_weights(V, E, [[0]], tt=1)
     with pytest.raises(ValueError, match="order"):
