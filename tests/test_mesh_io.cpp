@@ -1038,3 +1038,22 @@ TEST_CASE("PLY quality names that cannot be written or read back say so", "[mesh
   CHECK(warned.find("is not printable ASCII; the quality is not kept") != std::string::npos);
   CHECK(back.vertexScalarNames().empty());
 }
+
+TEST_CASE("a mesh file name with a NUL byte is refused before anything else", "[io][hostile]") {
+  TempDir dir;
+  // The system would take the name cut at the NUL: the existing file "cut".
+  std::ofstream(dir / "cut") << "kept";
+  const std::string cut = (dir / "cut") + std::string(1, '\0');
+  const Mesh mesh = makeRectangle(1.0, 1.0, 2, 2);
+  for (const std::string ext : {".obj", ".foo", ".node", ""}) {
+    INFO("extension '" << ext << "'");
+    CHECK_THROWS_WITH(readMesh(cut + ext), Catch::StartsWith("cannot read '") &&
+                                               Catch::Contains("cut\\x00" + ext + "'") &&
+                                               Catch::EndsWith("the name has a NUL byte"));
+    CHECK_THROWS_WITH(writeMesh(cut + ext, mesh), Catch::StartsWith("cannot write '") &&
+                                                      Catch::EndsWith("the name has a NUL byte"));
+  }
+  std::ifstream in(dir / "cut");
+  CHECK(std::string(std::istreambuf_iterator<char>(in), {}) == "kept");
+  CHECK(dir.entries() == 1);
+}

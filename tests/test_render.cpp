@@ -112,6 +112,17 @@ TEST_CASE("writePng failures throw IoError and leave nothing behind") {
   CHECK_THROWS_AS(readPng((dir.path / "none.png").string()), IoError);
 }
 
+TEST_CASE("a PNG name with a NUL byte is refused: the system would use the name cut there") {
+  TempDir dir;
+  const Image image(8, 8);
+  writePng((dir.path / "cut").string(), image);  // a real PNG under the cut name
+  const std::string named = (dir.path / "cut").string() + std::string(1, '\0') + ".png";
+  CHECK_THROWS_WITH(readPng(named), Catch::EndsWith("the name has a NUL byte"));
+  CHECK_THROWS_WITH(writePng(named, Image(4, 4)), Catch::EndsWith("the name has a NUL byte"));
+  CHECK(readPng((dir.path / "cut").string()).width == 8);
+  CHECK(dir.entries() == 1);
+}
+
 TEST_CASE("readPng rejects a file that is not a PNG") {
   TempDir dir;
   const std::string path = (dir.path / "fake.png").string();

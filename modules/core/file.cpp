@@ -40,15 +40,6 @@ void checkStat(const struct stat& st, const std::string& what, const std::string
   }
 }
 
-/// The system's calls read a name up to its first NUL byte: a name with one inside would read
-/// or write another file than the one named.
-void checkNoNul(const std::string& path, const std::string& doing) {
-  if (path.find('\0') == std::string::npos) return;
-  std::string shown;  // a message is a C string: the NUL written out
-  for (char c : path) shown += c == '\0' ? std::string("\\x00") : std::string(1, c);
-  throw IoError("cannot " + doing + " '" + shown + "': the name has a NUL byte");
-}
-
 /// Opens `path` for reading after checking it is a regular file within `limit`.
 int openChecked(const std::string& path, const std::string& what, std::uint64_t limit) {
   checkNoNul(path, "open " + (what.empty() ? std::string("file") : what));
@@ -72,6 +63,13 @@ int openChecked(const std::string& path, const std::string& what, std::uint64_t 
 }
 
 }  // namespace
+
+void checkNoNul(const std::string& path, const std::string& doing) {
+  if (path.find('\0') == std::string::npos) return;
+  std::string shown;  // a message is a C string: the NUL written out
+  for (char c : path) shown += c == '\0' ? std::string("\\x00") : std::string(1, c);
+  throw IoError("cannot " + doing + " '" + shown + "': the name has a NUL byte");
+}
 
 std::string byteText(std::uint64_t bytes) {
   char buf[64];

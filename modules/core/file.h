@@ -21,6 +21,12 @@ inline constexpr std::uint64_t meshBytes = std::uint64_t(128) << 20;
 inline constexpr std::uint64_t textBytes = std::uint64_t(16) << 20;
 }  // namespace limits
 
+/// The system's calls take a file name up to its first NUL byte, so a name with one inside
+/// would read or write another file than the one named. Every reader and writer of files by
+/// name calls this first.
+/// \throw IoError "cannot DOING 'name': the name has a NUL byte" (the NUL written as \x00).
+void checkNoNul(const std::string& path, const std::string& doing);
+
 /// The whole content of the regular file `path`; `what` names it in messages ("handle file").
 /// Devices, FIFOs and sockets are refused before they are opened for reading.
 /// \throw IoError "cannot open WHAT 'path': ..." when it is missing, a directory, not a regular

@@ -326,6 +326,7 @@ std::string extensionOf(const std::string& path) {
 }
 
 Mesh readMesh(const std::string& path) {
+  checkNoNul(path, "read");
   const std::string ext = extensionOf(path);
   const auto text = [&] { return readFileLimited(path, "mesh file", limits::meshBytes); };
   Mesh mesh;
@@ -414,6 +415,7 @@ std::vector<std::string> writableExtensions(MeshKind kind) {
 }
 
 void checkWritable(const std::string& path, MeshKind kind) {
+  checkNoNul(path, "write");
   const std::string ext = extensionOf(path);
   const auto formats = writableExtensions(kind);
   if (std::find(formats.begin(), formats.end(), ext) != formats.end()) return;

@@ -143,8 +143,10 @@ std::string toPath(const py::handle& value, const char* what) {
                            ": expected a file path (str, bytes or "
                            "os.PathLike), got " +
                            py::str(py::type::of(value).attr("__name__")).cast<std::string>());
-  // os.fspath gives str or bytes; a NUL inside is refused where the file is opened.
-  return py::module_::import("os").attr("fspath")(value).cast<std::string>();
+  // As open() takes it: os.fsencode gives the bytes of the name (a str with surrogate escapes,
+  // as os.listdir gives a name that is not UTF-8, included). A NUL inside is refused where the
+  // file is opened (checkNoNul).
+  return py::module_::import("os").attr("fsencode")(value).cast<std::string>();
 }
 
 Mesh toMesh(const py::handle& V, const py::handle& E) {

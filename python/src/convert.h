@@ -47,7 +47,7 @@ std::vector<int> toIds(const py::handle& array, const char* what, int numVertice
 /// Whether `value` names a file as Python's open() takes one: a str, bytes or os.PathLike
 /// (e.g. pathlib.Path).
 bool isPath(const py::handle& value);
-/// That file name as bytes for the library (os.fspath; str encoded as UTF-8).
+/// That file name as the bytes the system takes (os.fsencode, as open() does).
 /// \throw InvalidParameter (ValueError) naming `what` when `value` is not a path.
 std::string toPath(const py::handle& value, const char* what);
 

@@ -35,16 +35,15 @@ nlohmann::json runWithProgress(const Pipeline& pipeline, Document& doc,
                                const py::object& progress) {
   PyProgress reporter(progress);
   const auto hook = reporter.hook();
+  struct Hooked {  // the hook goes with the call, however it ends
+    Document& doc;
+    ~Hooked() { doc.progress = nullptr; }
+  } hooked{doc};
   doc.progress = [hook](const std::string&, int iteration, double energy, double criterion) {
     hook(iteration, energy, criterion);
   };
-  nlohmann::json report;
-  {
-    py::gil_scoped_release release;
-    report = pipeline.run(doc);
-  }
-  doc.progress = nullptr;
-  return report;
+  py::gil_scoped_release release;
+  return pipeline.run(doc);
 }
 
 // Applies one built-in filter with the keyword arguments as its parameters (validated and
@@ -251,12 +250,13 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
     if (ve.size() != 2) throw InvalidParameter("run: mesh must be a file path or a tuple (V, E)");
     Mesh mesh = toMesh(ve[0], ve[1]);
     HandleSet set;
+    const std::string handlesPath = isPath(handles) ? toPath(handles, "handles") : "";
     if (isPath(handles))
-      set = readHandles(toPath(handles, "handles"), mesh);
+      set = readHandles(handlesPath, mesh);
     else if (!handles.is_none())
       set = toHandles(mesh, handles, targets, ranges, magnitudes);
     doc = makeDocument(std::move(mesh), std::move(set));
-    if (isPath(handles)) doc.handlesPath = toPath(handles, "handles");
+    doc.handlesPath = handlesPath;
   }
   Pipeline pipeline;
   if (!script.is_none())  // a MeshLab .mlx script's steps first, as the tool's -s

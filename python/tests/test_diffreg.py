@@ -457,13 +457,23 @@ def test_paths_may_be_pathlib_or_bytes_and_a_nul_is_refused(tmp_path):
         diffreg.read_mesh(3)
     # The system would read or write the name cut at the NUL: "cut" here.
     (tmp_path / "cut").write_text("kept")
-    for call in (lambda: diffreg.read_mesh(str(tmp_path / "cut") + "\0.obj"),
-                 lambda: diffreg.write_mesh(str(tmp_path / "cut") + "\0.ply", V, E),
-                 lambda: diffreg.read_handles(str(tmp_path / "cut") + "\0.json", V, E)):
+    cut = str(tmp_path / "cut")
+    for call in (lambda: diffreg.read_mesh(cut + "\0.obj"),
+                 lambda: diffreg.read_mesh(cut + "\0.foo"),
+                 lambda: diffreg.read_mesh(cut + "\0.node"),
+                 lambda: diffreg.write_mesh(cut + "\0.ply", V, E),
+                 lambda: diffreg.write_mesh(cut + "\0.foo", V, E),
+                 lambda: diffreg.read_handles(cut + "\0.json", V, E)):
         with pytest.raises(OSError, match=r"cut\\x00\..*NUL byte"):
             call()
     assert (tmp_path / "cut").read_text() == "kept"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bar.ply", "cut"]
+    # A name that is not UTF-8, as os.listdir gives it (surrogate escapes), as open() takes it.
+    odd = os.fsdecode(b"caf\xe9.ply")
+    diffreg.write_mesh(tmp_path / odd, V, E)
+    assert os.path.exists(os.path.join(os.fsencode(tmp_path), b"caf\xe9.ply"))
+    np.testing.assert_array_equal(diffreg.read_mesh(tmp_path / odd)[0], V)
+    np.testing.assert_array_equal(diffreg.read_mesh(str(tmp_path / odd))[0], V)
 
 
 # ---- progress and interruption --------------------------------------------------------------------
