@@ -444,8 +444,29 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
   };
 
   if (ext == "om") {  // .om carries every named property
-    for (const auto& name : mesh.vertexScalarNames()) scalar(true, name);
-    for (const auto& name : mesh.elementScalarNames()) scalar(false, name);
+    // Its names are one length byte and the bytes, and OpenMesh keeps "v:...", "f:...", "e:..."
+    // and "h:..." for its own (they are not written); diffreg's reader takes printable ASCII.
+    const auto storable = [&](const std::string& name) {
+      const char* why = name.empty()            ? "empty"
+                        : name.size() > 255     ? "longer than 255 bytes"
+                        : !printableAscii(name) ? "not printable ASCII"
+                        : name.size() >= 2 && name[1] == ':' &&
+                                std::string("vfeh").find(name[0]) != std::string::npos
+                            ? "OpenMesh's own prefix, which it does not write"
+                            : nullptr;
+      if (why)
+        throw IoError("cannot write " + quote(path) + ": the property name " +
+                      quote(name.size() > 80 ? name.substr(0, 80) + "..." : name) +
+                      " cannot be kept in .om (" + why + ")");
+    };
+    for (const auto& name : mesh.vertexScalarNames()) {
+      storable(name);
+      scalar(true, name);
+    }
+    for (const auto& name : mesh.elementScalarNames()) {
+      storable(name);
+      scalar(false, name);
+    }
   }
   writeFileAtomically(path, [&](std::ostream& out) {
     if (ext == "mesh") {
