@@ -10,6 +10,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
+
 #include <filesystem>
 #include <string>
 
@@ -133,4 +135,43 @@ TEST_CASE("measure rejects reference and rest meshes that do not match", "[filte
   Pipeline p;
   p.add("measure", {{"reference", (scratch.dir / "missing.ply").string()}});
   CHECK_THROWS_AS(p.run(doc), IoError);
+}
+
+TEST_CASE("measure refuses to flatten: a planar rest with a mesh or reference out of its plane",
+          "[filter][measure]") {
+  Scratch scratch;
+  // The bar bent out of its plane: measured against the flat bar it is not undistorted.
+  Document flat = bar();
+  Eigen::MatrixXd X = flat.mesh.positions();
+  for (Eigen::Index i = 0; i < X.rows(); ++i) X(i, 2) = 0.5 * std::sin(X(i, 0));
+  Mesh bent = flat.mesh;
+  bent.setPositions(X);
+  const std::string bump = (scratch.dir / "bump.obj").string();
+  writeMesh(bump, bent);
+  {
+    Document input = Document::load(bump);
+    Pipeline p;
+    p.add("measure", {{"rest", shipped("bar.obj")}});
+    CHECK_THROWS_WITH(p.run(input), Catch::Contains("leaves its plane") &&
+                                        Catch::Contains("the mesh being measured"));
+  }
+  {
+    Document doc = bar();
+    Pipeline p;
+    p.add("deform");
+    p.add("measure", {{"reference", bump}});
+    CHECK_THROWS_WITH(p.run(doc),
+                      Catch::Contains("leaves its plane") && Catch::Contains("bump.obj"));
+  }
+  // A plane moved along z stays measurable: only the spread matters.
+  Mesh lifted = flat.mesh;
+  Eigen::MatrixXd L = lifted.positions();
+  L.col(2).array() += 3.0;
+  lifted.setPositions(L);
+  const std::string up = (scratch.dir / "lifted.obj").string();
+  writeMesh(up, lifted);
+  Document input = Document::load(up);
+  Pipeline p;
+  p.add("measure", {{"rest", shipped("bar.obj")}});
+  CHECK(p.run(input)["filters"][0]["metrics"]["D_max"].get<double>() < 1e-20);
 }

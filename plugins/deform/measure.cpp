@@ -38,6 +38,20 @@ Mesh readMatching(const Document& doc, const std::string& path, const std::strin
   return other;
 }
 
+// A planar rest shape measures x and y only: `positions` (n x 3) that leave a plane z = const
+// would be measured flattened, as if their z did not exist.
+void checkInPlane(const Discretization& disc, const Eigen::MatrixXd& positions,
+                  const std::string& what) {
+  if (disc.dim() != 2 || positions.cols() < 3 || positions.rows() == 0) return;
+  const double spread = positions.col(2).maxCoeff() - positions.col(2).minCoeff();
+  const double diagonal = (positions.colwise().maxCoeff() - positions.colwise().minCoeff()).norm();
+  if (planarSpread(spread, diagonal)) return;
+  throw InvalidParameter("filter measure: the rest shape is planar, but " + what +
+                         " leaves its plane (z spans " + formatNumber(spread) +
+                         "): a planar measure would drop that z; give a rest and a deformed "
+                         "mesh of one kind");
+}
+
 }  // namespace
 
 std::string MeasureFilter::description() const {
@@ -79,6 +93,7 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
   const DeformationOptions deformed = doc.deformation.value_or(DeformationOptions{});
   const std::string energyName = params.getString("energy");
   const Energy energy = energyName == "auto" ? deformed.energy : parseEnum<Energy>(energyName);
+  checkInPlane(disc, doc.mesh.positions(), "the mesh being measured");
   const Eigen::MatrixXd positions = currentPositions(doc, disc);
 
   const Regularization mode = deformed.regularization;
@@ -92,9 +107,9 @@ FilterResult MeasureFilter::apply(Document& doc, const ParamMap& params) const {
   nlohmann::json referenceText = nullptr;
   const std::string referencePath = params.getString("reference");
   if (!referencePath.empty()) {
-    reference = readMatching(doc, referencePath, "reference", false)
-                    .positions()
-                    .leftCols(disc.dim());
+    const Eigen::MatrixXd given = readMatching(doc, referencePath, "reference", false).positions();
+    checkInPlane(disc, given, "the reference '" + referencePath + "'");
+    reference = given.leftCols(disc.dim());
     referenceText = referencePath;
   } else if (doc.deformation) {
     if (mode == Regularization::None) {
