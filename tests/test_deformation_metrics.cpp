@@ -466,3 +466,21 @@ TEST_CASE("a run that throws leaves no last targets and nothing to continue",
   stop = false;
   CHECK(session.resume(3000, kDefaultTolerance).initialGuess != "continued");
 }
+
+TEST_CASE("Dist averages over the vertices of the elements only", "[deformation][metrics]") {
+  // The bar with as many vertices again that no element uses: Table 1's Dist must not change.
+  const auto bar = makeBar(MeshKind::Planar);
+  const Eigen::Index n = bar->numVertices();
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(2 * n, 3);
+  P.topLeftCorner(n, 2) = bar->rest();
+  P.bottomLeftCorner(n, 2) = bar->rest().rowwise() + Eigen::RowVector2d(50.0, 0.0);
+  const Discretization disc(MeshKind::Planar, P, bar->elements());
+  const auto w = makeRegularizationWeights(disc, Regularization::None, 0.0);
+  const Eigen::MatrixXd rest = disc.rest();
+  Eigen::MatrixXd moved = rest;
+  moved.topRows(n).rowwise() += Eigen::RowVector2d(0.3, 0.4);  // the strays stay
+  const DeformationMetrics m = measureDeformation(disc, Energy::Arap, moved, w, &rest);
+  REQUIRE(m.dist.has_value());
+  CHECK(*m.dist == Approx(0.5));
+  CHECK(rmsDistance(moved, rest) == Approx(0.5 / std::sqrt(2.0)));  // every row, as documented
+}

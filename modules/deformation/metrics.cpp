@@ -129,6 +129,25 @@ double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return std::sqrt((a - b).rowwise().squaredNorm().mean());
 }
 
+double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,
+                   const std::vector<bool>& active) {
+  if (a.rows() != b.rows() || a.cols() != b.cols() ||
+      static_cast<Eigen::Index>(active.size()) != a.rows())
+    throw InvalidParameter("metrics: cannot compare positions of shapes " +
+                           std::to_string(a.rows()) + " x " + std::to_string(a.cols()) + " and " +
+                           std::to_string(b.rows()) + " x " + std::to_string(b.cols()) +
+                           " over " + std::to_string(active.size()) + " vertices");
+  double sum = 0.0;
+  Eigen::Index count = 0;
+  for (Eigen::Index i = 0; i < a.rows(); ++i)
+    if (active[static_cast<size_t>(i)]) {
+      sum += (a.row(i) - b.row(i)).squaredNorm();
+      ++count;
+    }
+  if (count == 0) throw InvalidParameter("metrics: no vertex of an element to compare");
+  return std::sqrt(sum / static_cast<double>(count));
+}
+
 DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
                                       const Eigen::MatrixXd& positions,
                                       const RegularizationWeights& weights,
@@ -170,7 +189,7 @@ DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
     regularizer.setWeights(weights);
     m.energy = relaxedEnergy(model, regularizer, positions, startTargets);
   }
-  if (reference) m.dist = rmsDistance(positions, *reference);
+  if (reference) m.dist = rmsDistance(positions, *reference, disc.active());
   return m;
 }
 

@@ -43,6 +43,11 @@ int countInverted(const Discretization& disc, const Eigen::MatrixXd& positions);
 /// Root mean square of the per-vertex distance between two position sets of equal shape.
 /// \throw InvalidParameter when the shapes differ or are empty.
 double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
+/// The same over the vertices marked in `active` (Discretization::active(): those of the
+/// elements), the Dist of Table 1: unreferenced vertices, left out of every system, would pull
+/// the mean towards 0. \throw InvalidParameter also when `active` has another size or no vertex.
+double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,
+                   const std::vector<bool>& active);
 
 struct DeformationMetrics {
   double dMax = 0.0;           ///< max_k D_k

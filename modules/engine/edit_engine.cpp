@@ -455,7 +455,8 @@ void EditEngine::compute(const EditState& want, UpdateReport& report) {
 void EditEngine::refreshDist(const EditState& want, const Eigen::MatrixXd& positions) {
   // As refreshMaps: without the deformation (deform off) the metrics stay zero, Dist unset.
   if (want.params.deform && want.params.metrics && want.params.reference && wantsReference(want))
-    metrics_.dist = rmsDistance(positions.leftCols(disc_->dim()), systems_->reference.positions);
+    metrics_.dist = rmsDistance(positions.leftCols(disc_->dim()), systems_->reference.positions,
+                                disc_->active());
 }
 
 bool EditEngine::mapsParamsChanged(const EditState& want) const {
