@@ -2,6 +2,7 @@
 // distances it can use.
 #include <diffreg/core/error.h>
 #include <diffreg/discretization/discretization.h>
+#include <diffreg/mesh/io.h>
 #include <diffreg/mesh/shapes.h>
 #include <diffreg/weights/diffusion.h>
 #include <diffreg/weights/geodesic.h>
@@ -236,4 +237,14 @@ TEST_CASE("RBF weights on tets and argument errors", "[weights][rbf]") {
                   InvalidParameter);
   CHECK_THROWS_AS(rbfWeights(box, handleSet({handle({0}, -1.0)}), 0.5, RbfDistance::Euclidean),
                   InvalidParameter);
+}
+
+TEST_CASE("RBF sigma from the diagonal of the vertices of the elements only", "[weights][rbf]") {
+  // One stray vertex far away, used by no element, does not widen every Gaussian.
+  TempDir dir;
+  const std::string square = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
+  const Mesh plain = readMesh(dir.file("plain.obj", square));
+  const Mesh stray = readMesh(dir.file("stray.obj", square + "v 100 100 0\n"));
+  CHECK(rbfSigmaFromDiagonal(plain, 0.1) == Approx(0.1 * std::sqrt(2.0)));
+  CHECK(rbfSigmaFromDiagonal(stray, 0.1) == rbfSigmaFromDiagonal(plain, 0.1));
 }

@@ -33,7 +33,8 @@ struct EnumTable<RbfDistance> {
 /// The range of sigma (in any unit) every front end accepts.
 constexpr double kMinRbfSigma = 1e-12, kMaxRbfSigma = 1e6;
 
-/// sigma in length units from a fraction of the bounding-box diagonal of the mesh's vertices.
+/// sigma in length units from a fraction of the bounding-box diagonal of the mesh's referenced
+/// vertices (those of its elements; the discretization's diagonal).
 /// \throw InvalidParameter for fraction <= 0 (or not finite), InvalidMesh for an empty mesh.
 double rbfSigmaFromDiagonal(const Mesh& mesh, double fraction);
 
