@@ -1082,3 +1082,15 @@ TEST_CASE(".om keeps property names of up to 255 printable bytes and refuses the
 
   CHECK(dir.entries() == 1);
 }
+
+TEST_CASE("a number in a mesh file takes one sign: +-1 is no number", "[io][hostile]") {
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  CHECK(parseObj("v +1 0 0\nv 0 1 0\nv 0 0 1\nf +1 2 3\n", "t.obj").points[0].x() == 1.0);
+  CHECK(parseObj(tri + "f -3 -2 -1\n", "t.obj").faces.size() == 1);
+  CHECK_THROWS_AS(parseObj("v +-1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n", "t.obj"), InvalidMesh);
+  CHECK_THROWS_AS(parseObj(tri + "f +-3 1 2\n", "t.obj"), InvalidMesh);
+  CHECK_THROWS_AS(parseObj("v + 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n", "t.obj"), InvalidMesh);
+  CHECK_THROWS_AS(parseOff("OFF\n3 1 0\n+-1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n", "t.off"), InvalidMesh);
+  CHECK_THROWS_AS(parseOff("OFF\n3 1 0\n1 0 0\n0 1 0\n0 0 1\n3 +-0 1 2\n", "t.off"), InvalidMesh);
+  CHECK(parseOff("OFF\n3 1 0\n+1 0 0\n0 1 0\n0 0 1\n3 +0 1 2\n", "t.off").points[0].x() == 1.0);
+}

@@ -39,7 +39,8 @@ enum class Parsed { Ok, Bad, Overflow };
 /// Parses all of `s` as a double; values beyond the range of double are Overflow, values
 /// below its smallest magnitude read as 0 (or a subnormal).
 Parsed parseDouble(std::string_view s, double& v) {
-  if (!s.empty() && s[0] == '+') s.remove_prefix(1);
+  // One sign: "+1" reads as 1, "+-1" is no number (from_chars would take the '-').
+  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
   const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
   if (r.ptr != s.data() + s.size() || s.empty()) return Parsed::Bad;
   if (r.ec == std::errc::result_out_of_range) {
@@ -50,7 +51,7 @@ Parsed parseDouble(std::string_view s, double& v) {
 }
 
 std::optional<long long> parseInt(std::string_view s) {
-  if (!s.empty() && s[0] == '+') s.remove_prefix(1);
+  if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);  // one sign, as above
   long long v = 0;
   const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
   if (r.ec != std::errc() || r.ptr != s.data() + s.size()) return std::nullopt;
