@@ -135,8 +135,8 @@ double rmsDistance(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,
       static_cast<Eigen::Index>(active.size()) != a.rows())
     throw InvalidParameter("metrics: cannot compare positions of shapes " +
                            std::to_string(a.rows()) + " x " + std::to_string(a.cols()) + " and " +
-                           std::to_string(b.rows()) + " x " + std::to_string(b.cols()) +
-                           " over " + std::to_string(active.size()) + " vertices");
+                           std::to_string(b.rows()) + " x " + std::to_string(b.cols()) + " over " +
+                           std::to_string(active.size()) + " vertices");
   double sum = 0.0;
   Eigen::Index count = 0;
   for (Eigen::Index i = 0; i < a.rows(); ++i)
