@@ -76,6 +76,19 @@ TEST_CASE("an output that is a symbolic link stays one", "[cli][hostile]") {
   CHECK(std::distance(fs::directory_iterator(tmp.path / "data"), fs::directory_iterator()) == 1);
 }
 
+TEST_CASE("an output link to a file of another extension is written in the output's format",
+          "[cli][hostile]") {
+  // -o res.ply asks for PLY: that res.ply leads to res.obj does not make it OBJ.
+  TempDir tmp;
+  const std::string real = tmp.file("res.obj", "");
+  const std::string link = tmp / "res.ply";
+  fs::create_symlink("res.obj", link);
+  StagedOutputs staged;
+  const std::string temporary = staged.stage(link);
+  CHECK(fs::path(temporary).extension() == ".ply");
+  CHECK(fs::path(temporary).parent_path() == fs::path(real).parent_path());
+}
+
 TEST_CASE("a staged write that fails names the output, not its temporary", "[cli][hostile]") {
   TempDir tmp;
   const std::string out = tmp / "out.ply";

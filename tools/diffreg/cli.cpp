@@ -177,9 +177,12 @@ std::string StagedOutputs::stage(const std::string& path) {
     if (e.canonical == canonical)
       throw InvalidParameter("output '" + path + "' is written twice (by -o, --report or a filter" +
                              (e.target != path ? ", also as '" + e.target + "'" : "") + ")");
-  const std::string tmp = (p.parent_path() / ("." + p.stem().string() + ".tmp" +
-                                              std::to_string(::getpid()) + p.extension().string()))
-                              .string();
+  // Beside the file it replaces (the rename is atomic there), with the extension of `path` as
+  // given: the writers pick the format by it, and a link's own target may have another.
+  const std::string tmp =
+      (p.parent_path() / ("." + p.stem().string() + ".tmp" + std::to_string(::getpid()) +
+                          fs::path(path).extension().string()))
+          .string();
   staged_.push_back({tmp, path, p.string(), canonical});
   registerTemporary(tmp);  // an interrupted run removes it (removeTemporariesOnSignal)
   return tmp;
