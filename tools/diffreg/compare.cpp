@@ -57,6 +57,19 @@ Step parseStep(const std::string& spec, const std::string& option) {
   return Step{name, values};
 }
 
+// --weights and --rbf: a step that makes the weights (checked before it runs: a filter that
+// writes files, such as render, would write them outside the staged outputs).
+Step parseWeightsStep(const std::string& spec, const std::string& option) {
+  Step step = parseStep(spec, option);
+  const Filter& filter = Registry::builtin().get(step.filter);
+  const std::vector<std::string> made =
+      filter.produces(ParamMap(step.filter, filter.params(), step.values));
+  if (std::find(made.begin(), made.end(), prop::weight) == made.end())
+    throw UsageError(option + ": filter '" + step.filter + "' produces no " + prop::weight +
+                     " (give a weights filter: diffuse_weights or rbf_weights)");
+  return step;
+}
+
 std::string markdownTable(const std::vector<Variant>& variants) {
   std::ostringstream md;
   md << "| regularization | beta | D_max | D_ave | D_dev | Dist | inverted | energy | iterations "
@@ -200,7 +213,7 @@ CompareSettings compareSettings(const po::variables_map& vm) {
   CompareSettings s;
   parseSize("compare", vm["size"].as<std::string>(), s.width, s.height);
   s.up = parseUp("compare", vm["up"].as<std::string>());
-  s.weights = parseStep(vm["weights"].as<std::string>(), "--weights");
+  s.weights = parseWeightsStep(vm["weights"].as<std::string>(), "--weights");
   s.deform = parseStep(vm["deform"].as<std::string>(), "--deform");
   if (s.deform.filter != "deform")
     throw UsageError("compare: --deform must name the deform filter, not '" + s.deform.filter +
@@ -215,7 +228,7 @@ CompareSettings compareSettings(const po::variables_map& vm) {
       throw UsageError("compare: --beta " + formatNumber(*s.beta) + " is not in [0, 1]");
   }
   if (vm.count("rbf")) {
-    s.rbf = parseStep(vm["rbf"].as<std::string>(), "--rbf");
+    s.rbf = parseWeightsStep(vm["rbf"].as<std::string>(), "--rbf");
     // Summed Gaussians exceed 1 near a handle of magnitude 1 whenever another handle's tail
     // reaches it, and deform refuses weights above 1: clamped unless the caller says.
     if (s.rbf->filter == "rbf_weights") s.rbf->values.emplace("clamp", "true");
