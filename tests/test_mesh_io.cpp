@@ -1094,3 +1094,26 @@ TEST_CASE("a number in a mesh file takes one sign: +-1 is no number", "[io][host
   CHECK_THROWS_AS(parseOff("OFF\n3 1 0\n1 0 0\n0 1 0\n0 0 1\n3 +-0 1 2\n", "t.off"), InvalidMesh);
   CHECK(parseOff("OFF\n3 1 0\n+1 0 0\n0 1 0\n0 0 1\n3 +0 1 2\n", "t.off").points[0].x() == 1.0);
 }
+
+TEST_CASE("data past the elements a header declares is refused, not dropped", "[io][hostile]") {
+  const std::string plyHead =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+      "property double z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n";
+  CHECK(parsePly(plyHead, "t.ply").faces.size() == 2);
+  CHECK(parsePly(plyHead + "\n  \n", "t.ply").faces.size() == 2);  // blank lines are fine
+  CHECK_THROWS_WITH(
+      parsePly(plyHead + "3 0 3 2\n", "t.ply"),
+      Catch::Contains("t.ply:16:") && Catch::Contains("more values after the last element"));
+  const std::string off = "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n";
+  CHECK(parseOff(off + "# a comment\n", "t.off").faces.size() == 2);
+  CHECK_THROWS_WITH(parseOff(off + "3 0 3 2\n", "t.off"),
+                    Catch::Contains("more data after the 2 faces"));
+  const std::string node = "5 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n4 1 1 1\n";
+  const std::string ele = "1 4 0\n0 0 1 2 3\n";
+  CHECK(parseTetgen(node, "t.node", ele, "t.ele").tets.size() == 1);
+  CHECK_THROWS_WITH(parseTetgen(node, "t.node", ele + "1 1 2 4 3\n", "t.ele"),
+                    Catch::Contains("more data after the 1 tets"));
+  CHECK_THROWS_WITH(parseTetgen(node + "5 2 2 2\n", "t.node", ele, "t.ele"),
+                    Catch::Contains("more data after the 5 points"));
+}

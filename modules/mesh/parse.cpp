@@ -498,6 +498,9 @@ RawMesh parseOff(std::string_view text, const std::string& source) {
     }
     raw.faces.push_back(std::move(face));
   }
+  if (s.line(t))  // more faces than the header declares would be dropped unread
+    throw InvalidMesh(s.where() + ": more data after the " + std::to_string(nf) +
+                      " faces the header declares");
   return raw;
 }
 
@@ -714,6 +717,19 @@ class PlyValues {
         lines_(text.substr(h.dataStart), source, false),
         bin_(text.substr(h.dataStart), h.format == PlyFormat::Big, source) {}
 
+  /// After the last element: values the header does not declare would be dropped unread, so
+  /// an ASCII body with more is an error, and a binary one's extra bytes are warned about.
+  void finish() {
+    if (ascii_) {
+      if (pending_ || lines_.token(token_))
+        throw InvalidMesh(source_ + ":" + std::to_string(line()) +
+                          ": more values after the last element the header declares");
+    } else if (bin_.remaining() > 0) {
+      warn(source_ + ": " + std::to_string(bin_.remaining()) +
+           " bytes after the last element the header declares are not read");
+    }
+  }
+
   /// Starts element `k` of `e`. \throw InvalidMesh when an ASCII body has no value left.
   void start(const PlyElement& e, long long k) {
     what_ = e.name + " " + std::to_string(k);
@@ -874,6 +890,7 @@ RawMesh parsePly(std::string_view text, const std::string& source) {
   raw.faceQualityName = h.faceQualityName;
   PlyValues values(text, h, source);
   for (const PlyElement& e : h.elements) readPlyElement(values, e, source, raw);
+  values.finish();
   if (raw.vertexQuality.empty()) raw.vertexQualityName.clear();
   if (raw.faceQuality.empty()) raw.faceQualityName.clear();
   return raw;
@@ -1073,6 +1090,9 @@ int readTetgenNodes(std::string_view text, const std::string& source, TetMesh& t
     for (int c = 0; c < 3; ++c) p[c] = coordinate(l[c + 1], [&] { return f.where(); }, *id);
     tet.points.push_back(p);
   }
+  if (f.line(l))
+    throw InvalidMesh(f.where() + ": more data after the " + std::to_string(n) +
+                      " points the header declares");
   return firstIndex;
 }
 
@@ -1116,6 +1136,9 @@ void readTetgenTets(std::string_view text, const std::string& source, int firstI
     }
     tet.tets.push_back(t);
   }
+  if (f.line(l))
+    throw InvalidMesh(f.where() + ": more data after the " + std::to_string(m) +
+                      " tets the header declares");
 }
 
 }  // namespace
