@@ -222,8 +222,8 @@ TEST_CASE("RBF weights on tets and argument errors", "[weights][rbf]") {
     CHECK(x.minCoeff() >= 0.0);
     CHECK(x.maxCoeff() <= 0.5 + 1e-12);
   }
-  CHECK(rbfSigmaFromDiagonal(makeRectangle(4, 3, 4, 3), 0.1) == Approx(0.5));
-  CHECK_THROWS_AS(rbfSigmaFromDiagonal(box, 0.0), InvalidParameter);
+  CHECK(rbfSigmaFromDiagonal(Discretization(makeRectangle(4, 3, 4, 3)), 0.1) == Approx(0.5));
+  CHECK_THROWS_AS(rbfSigmaFromDiagonal(Discretization(box), 0.0), InvalidParameter);
   CHECK_THROWS_WITH(rbfWeights(box, one, 0.0, RbfDistance::Euclidean), Catch::Contains("sigma"));
   CHECK_THROWS_AS(rbfWeights(box, one, -1.0, RbfDistance::Geodesic), InvalidParameter);
   CHECK_THROWS_AS(rbfWeights(box, one, std::nan(""), RbfDistance::Euclidean), InvalidParameter);
@@ -245,6 +245,7 @@ TEST_CASE("RBF sigma from the diagonal of the vertices of the elements only", "[
   const std::string square = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n";
   const Mesh plain = readMesh(dir.file("plain.obj", square));
   const Mesh stray = readMesh(dir.file("stray.obj", square + "v 100 100 0\n"));
-  CHECK(rbfSigmaFromDiagonal(plain, 0.1) == Approx(0.1 * std::sqrt(2.0)));
-  CHECK(rbfSigmaFromDiagonal(stray, 0.1) == rbfSigmaFromDiagonal(plain, 0.1));
+  CHECK(rbfSigmaFromDiagonal(Discretization(plain), 0.1) == Approx(0.1 * std::sqrt(2.0)));
+  CHECK(rbfSigmaFromDiagonal(Discretization(stray), 0.1) ==
+        rbfSigmaFromDiagonal(Discretization(plain), 0.1));
 }

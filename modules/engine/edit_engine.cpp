@@ -524,7 +524,7 @@ bool EditEngine::computeWeights(const EditState& want, Eigen::VectorXd& weights,
   } else if (p.scheme == WeightScheme::Rbf) {
     const std::optional<EditState>& had = S.rbfSynced;
     report.absoluteSigma =
-        p.rbf.sigmaAbsolute ? p.rbf.sigma : rbfSigmaFromDiagonal(mesh_, p.rbf.sigma);
+        p.rbf.sigmaAbsolute ? p.rbf.sigma : rbfSigmaFromDiagonal(*disc_, p.rbf.sigma);
     if (!had || vertexSets(*had) != vertexSets(want) || !sameRangesAndMagnitudes(*had, want) ||
         !sameRbf(had->params.rbf, p.rbf)) {
       weights =

@@ -11,24 +11,13 @@
 
 namespace diffreg {
 
-double rbfSigmaFromDiagonal(const Mesh& mesh, double fraction) {
+double rbfSigmaFromDiagonal(const Discretization& disc, double fraction) {
   if (!(fraction > 0.0) || !std::isfinite(fraction))
     throw InvalidParameter("rbf: sigma fraction must be > 0 (got " + std::to_string(fraction) +
                            ")");
-  if (mesh.numVertices() == 0) throw InvalidMesh("rbf: the mesh is empty");
-  // The referenced vertices' box, as the discretization's diagonal (diffuse_weights' unit): a
-  // stray unreferenced vertex is left out of every system and must not widen every Gaussian.
-  const Eigen::MatrixXd p = mesh.positions();
-  const std::vector<bool> used = mesh.referenced();
-  Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::RowVector3d hi = -lo;
-  for (Eigen::Index i = 0; i < p.rows(); ++i)
-    if (used[static_cast<size_t>(i)]) {
-      lo = lo.cwiseMin(p.row(i));
-      hi = hi.cwiseMax(p.row(i));
-    }
-  if (!(hi.array() >= lo.array()).all()) throw InvalidMesh("rbf: the mesh has no elements");
-  return fraction * (hi - lo).norm();
+  // The discretization's diagonal, over the vertices of its elements: a stray unreferenced
+  // vertex is left out of every system and must not widen every Gaussian.
+  return fraction * disc.boundingBoxDiagonal();
 }
 
 Eigen::VectorXd rbfWeights(const Mesh& mesh, const HandleSet& handles, double sigma,

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <diffreg/core/names.h>
+#include <diffreg/discretization/discretization.h>
 #include <diffreg/handles/handles.h>
 #include <diffreg/mesh/mesh.h>
 
@@ -33,10 +34,10 @@ struct EnumTable<RbfDistance> {
 /// The range of sigma (in any unit) every front end accepts.
 constexpr double kMinRbfSigma = 1e-12, kMaxRbfSigma = 1e6;
 
-/// sigma in length units from a fraction of the bounding-box diagonal of the mesh's referenced
-/// vertices (those of its elements; the discretization's diagonal).
-/// \throw InvalidParameter for fraction <= 0 (or not finite), InvalidMesh for an empty mesh.
-double rbfSigmaFromDiagonal(const Mesh& mesh, double fraction);
+/// sigma in length units from a fraction of the bounding-box diagonal of the vertices of the
+/// elements (Discretization::boundingBoxDiagonal, diffuse_weights' unit).
+/// \throw InvalidParameter for fraction <= 0 (or not finite).
+double rbfSigmaFromDiagonal(const Discretization& disc, double fraction);
 
 /// Gaussian RBF weights (see the file comment), size n. Unreferenced vertices get 0, like the
 /// diffused weights. With `clamp` the result is clamped to [0, 1]; otherwise it is left as the
