@@ -2,14 +2,20 @@
 // code, stdout and stderr.
 #pragma once
 
+#include <diffreg/render/image.h>
 #include "test_support.h"
 
+#include <catch2/catch.hpp>
+
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -66,5 +72,22 @@ struct Scratch {
     return static_cast<int>(std::distance(fs::directory_iterator(dir), fs::directory_iterator()));
   }
 };
+
+/// The pixels of the picture that `command` (a picture command with its options, e.g.
+/// "resolution --levels 0") draws of the shipped cylinder twist with `--up` set to each of
+/// `ups`, by value. Each run must succeed.
+inline std::map<std::string, std::vector<std::uint8_t>> picturesByUp(
+    const Scratch& s, const std::string& command, const std::vector<std::string>& ups) {
+  std::map<std::string, std::vector<std::uint8_t>> pictures;
+  for (const std::string& up : ups) {
+    const ToolRun r = s.run(command + " -i '" + shipped("cylinder.obj") + "' --handles '" +
+                            shipped("cylinder-twist.json") + "' -o " + up +
+                            ".png --size 120x100 --up " + up + " -q");
+    INFO(up << ": " << r.err);
+    REQUIRE(r.code == 0);
+    pictures[up] = readPng((s.dir / (up + ".png")).string()).rgb;
+  }
+  return pictures;
+}
 
 }  // namespace diffreg::testing

@@ -116,15 +116,7 @@ TEST_CASE("diffreg compare --up turns the 3D views: each axis its own picture, a
           "[cli][compare]") {
   if (!fs::exists(DIFFREG_TOOL)) return;
   Scratch s("cli-compare-up");
-  std::map<std::string, std::vector<std::uint8_t>> pictures;
-  for (const std::string up : {"auto", "x", "y", "z"}) {
-    const ToolRun r = s.run("compare -i '" + shipped("cylinder.obj") + "' --handles '" +
-                            shipped("cylinder-twist.json") + "' -o " + up +
-                            ".png --size 120x100 --up " + up + " -q");
-    INFO(up << ": " << r.err);
-    REQUIRE(r.code == 0);
-    pictures[up] = readPng((s.dir / (up + ".png")).string()).rgb;
-  }
+  auto pictures = picturesByUp(s, "compare", {"auto", "x", "y", "z"});
   CHECK(pictures["x"] != pictures["y"]);
   CHECK(pictures["y"] != pictures["z"]);
   CHECK(pictures["x"] != pictures["z"]);

@@ -86,15 +86,7 @@ TEST_CASE("diffreg resolution --up turns the 3D views: each axis its own picture
           "[cli][resolution]") {
   if (!fs::exists(DIFFREG_TOOL)) return;
   Scratch s("cli-resolution-up");
-  std::map<std::string, std::vector<std::uint8_t>> pictures;
-  for (const std::string up : {"x", "y", "z"}) {
-    const ToolRun r = s.run("resolution -i '" + shipped("cylinder.obj") + "' --handles '" +
-                            shipped("cylinder-twist.json") + "' -o " + up +
-                            ".png --levels 0 --size 120x100 --up " + up + " -q");
-    INFO(up << ": " << r.err);
-    REQUIRE(r.code == 0);
-    pictures[up] = readPng((s.dir / (up + ".png")).string()).rgb;
-  }
+  auto pictures = picturesByUp(s, "resolution --levels 0", {"x", "y", "z"});
   CHECK(pictures["x"] != pictures["y"]);
   CHECK(pictures["y"] != pictures["z"]);
   CHECK(pictures["x"] != pictures["z"]);
