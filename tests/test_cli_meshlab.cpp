@@ -1,6 +1,7 @@
 // Round trip through real MeshLab: diffreg's PLY (weights as vertex quality and colours,
-// distortion as face quality) read and written again by Debian's meshlabserver keeps its
-// qualities and colours. Skipped, saying why, when meshlabserver or xvfb-run is not installed.
+// distortion as face quality, smoothness as a property of its own name) read and written again by
+// Debian's meshlabserver keeps its qualities and colours. Skipped, saying why, when meshlabserver
+// or xvfb-run is not installed.
 #include "cli_fixture.h"
 
 #include <catch2/catch.hpp>
@@ -196,6 +197,7 @@ TEST_CASE("MeshLab reads and writes back diffreg's PLY with weights, distortion 
     CHECK(bv.has(prop));
   }
   CHECK(of.has("quality"));
+  CHECK(of.has("diffreg:smoothness"));  // a named property of its own, which MeshLab reads past
   REQUIRE(bf.has("quality"));
   REQUIRE(bv.has("quality"));
   REQUIRE(bv.count == ov.count);

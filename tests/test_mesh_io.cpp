@@ -957,10 +957,17 @@ TEST_CASE("PLY carries vertex and face quality and viridis colours", "[mesh][io]
     other.setElementScalar("my:area", Eigen::Vector2d(0.5, 0.25));
     writeMesh(tmp / "named.ply", other, named);
     const Mesh again = readMesh(tmp / "named.ply");
-    CHECK_FALSE(again.hasVertexScalar(prop::weight));
-    CHECK_FALSE(again.hasElementScalar(prop::distortion));
     REQUIRE(again.hasElementScalar("my:area"));
     CHECK(again.elementScalar("my:area")(1) == 0.25);
+    // The properties that are not the qualities go out under their own names.
+    const Ply ply = parsePly(tmp / "named.ply");
+    CHECK(ply.props.at("vertex") == std::vector<std::string>{"x", "y", "z", prop::weight});
+    CHECK(ply.props.at("face") ==
+          std::vector<std::string>{"vertex_indices", "quality", prop::distortion});
+    REQUIRE(again.hasVertexScalar(prop::weight));
+    REQUIRE(again.hasElementScalar(prop::distortion));
+    CHECK(again.vertexScalar(prop::weight) == Eigen::VectorXd(w));
+    CHECK(again.elementScalar(prop::distortion) == Eigen::VectorXd(d));
   }
   SECTION("a quality whose meaning the file does not state is not taken for the weights") {
     const std::string foreign = tmp.file(
@@ -1035,8 +1042,107 @@ TEST_CASE("PLY quality names that cannot be written or read back say so", "[mesh
   const std::string path = tmp.file("named.ply", text);
   Mesh back;
   const std::string warned = stderrOf([&] { back = readMesh(path); });
-  CHECK(warned.find("is not printable ASCII; the quality is not kept") != std::string::npos);
+  CHECK(warned.find("is not printable ASCII; the vertex quality is not kept") != std::string::npos);
   CHECK(back.vertexScalarNames().empty());
+}
+
+TEST_CASE("PLY keeps every named property, exactly, under its own name", "[mesh][io]") {
+  TempDir tmp;
+  Mesh mesh = readMesh(tmp.file("q.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n"));
+  const Eigen::Vector4d w(0.1, 1.0 / 3.0, 2.5e-300, -7.0), g(1e300, -0.0, 4.0, 0.5);
+  const Eigen::Vector2d d(0.125, 3.0), s(1.0 / 7.0, 2.0);
+  mesh.setVertexScalar(prop::weight, w);
+  mesh.setVertexScalar("geodesic", g);
+  mesh.setElementScalar(prop::distortion, d);
+  mesh.setElementScalar(prop::smoothness, s);
+  writeMesh(tmp / "all.ply", mesh);
+  const Mesh back = readMesh(tmp / "all.ply");
+  CHECK(back.vertexScalarNames().size() == 2u);
+  CHECK(back.elementScalarNames().size() == 2u);
+  CHECK(back.vertexScalar(prop::weight) == Eigen::VectorXd(w));
+  CHECK(back.vertexScalar("geodesic") == Eigen::VectorXd(g));
+  CHECK(back.elementScalar(prop::distortion) == Eigen::VectorXd(d));
+  CHECK(back.elementScalar(prop::smoothness) == Eigen::VectorXd(s));
+  // OpenMesh reads the file, each extra property as a custom property of its name.
+  TriMesh om;
+  OpenMesh::IO::Options opt = OpenMesh::IO::Options::Custom;
+  REQUIRE(OpenMesh::IO::read_mesh(om, tmp / "all.ply", opt));
+  OpenMesh::VPropHandleT<double> geodesic;
+  REQUIRE(om.get_property_handle(geodesic, "geodesic"));
+  CHECK(om.property(geodesic, om.vertex_handle(2)) == 4.0);
+
+  SECTION("a name PLY cannot hold is warned about, the file still reads") {
+    Mesh odd = mesh;
+    odd.setVertexScalar("x", w);
+    odd.setElementScalar("two words", d);
+    const std::string err = stderrOf([&] { writeMesh(tmp / "odd.ply", odd); });
+    CHECK(err.find("vertex property 'x' is not written (PLY has a property of that name") !=
+          std::string::npos);
+    CHECK(err.find("element property 'two words' is not written") != std::string::npos);
+    const Mesh again = readMesh(tmp / "odd.ply");
+    CHECK(again.vertexScalarNames().size() == 2u);
+    CHECK(again.points() == odd.points());
+  }
+  SECTION("a tet mesh's boundary keeps the vertex properties") {
+    Mesh tet = readMesh(tmp.file("two.mesh", kTetFile));
+    tet.setVertexScalar("geodesic", Eigen::VectorXd::LinSpaced(5, 0.0, 4.0));
+    tet.setElementScalar(prop::smoothness, Eigen::Vector2d(1.0, 2.0));
+    writeMesh(tmp / "tet.ply", tet);
+    const Mesh surface = readMesh(tmp / "tet.ply");
+    REQUIRE(surface.hasVertexScalar("geodesic"));
+    CHECK(surface.vertexScalar("geodesic") == Eigen::VectorXd::LinSpaced(5, 0.0, 4.0));
+    CHECK_FALSE(surface.hasElementScalar(prop::smoothness));  // a tet's value, not a face's
+  }
+}
+
+TEST_CASE("named PLY values follow polygons and split faces into the built mesh", "[mesh][io]") {
+  TempDir tmp;
+  const std::string header =
+      "ply\nformat ascii 1.0\ncomment diffreg vertex quality diffreg:weight\n"
+      "comment diffreg face property area\n";
+  SECTION("each triangle of a polygon takes the polygon's value") {
+    const std::string path = tmp.file(
+        "quad.ply", header +
+                        "element vertex 5\nproperty double x\nproperty double y\n"
+                        "property double z\nproperty double quality\nelement face 2\n"
+                        "property list uchar int vertex_indices\nproperty double area\n"
+                        "end_header\n0 0 0 0.5\n1 0 0 1.5\n1 1 0 2.5\n0 1 0 3.5\n2 0 0 4.5\n"
+                        "4 0 1 2 3 7\n3 1 4 2 9\n");
+    Mesh mesh;
+    const std::string err = stderrOf([&] { mesh = readMesh(path); });
+    CHECK(err.find("triangulated 1 polygonal faces into 2 triangles") != std::string::npos);
+    CHECK(err.find("not kept") == std::string::npos);
+    REQUIRE(mesh.numElements() == 3);
+    REQUIRE(mesh.hasElementScalar("area"));
+    CHECK(mesh.elementScalar("area") == Eigen::Vector3d(7.0, 7.0, 9.0));
+    CHECK(mesh.vertexScalar(prop::weight) == Eigen::VectorXd::LinSpaced(5, 0.5, 4.5));
+  }
+  SECTION("a vertex copied for a split face takes the value of the vertex it copies") {
+    // Three triangles on the edge 0-1: the third is split off with copies of 0, 1 and 4.
+    const std::string path =
+        tmp.file("fin.ply", header +
+                                "element vertex 5\nproperty double x\nproperty double y\n"
+                                "property double z\nproperty double quality\nelement face 3\n"
+                                "property list uchar int vertex_indices\nproperty double area\n"
+                                "end_header\n0 0 0 10\n1 0 0 11\n0 1 0 12\n0 -1 0 13\n0 0 1 14\n"
+                                "3 0 1 2 1\n3 1 0 3 2\n3 0 1 4 3\n");
+    Mesh mesh;
+    const std::string err = stderrOf([&] { mesh = readMesh(path); });
+    CHECK(err.find("split off") != std::string::npos);
+    REQUIRE(mesh.numVertices() == 8);
+    REQUIRE(mesh.hasVertexScalar(prop::weight));
+    const Eigen::VectorXd& w = mesh.vertexScalar(prop::weight);
+    const Eigen::MatrixXi f = mesh.elements();
+    const Mesh::PointRows p = mesh.points();
+    for (int i = 0; i < 8; ++i) {  // each copy sits where its vertex does, with its value
+      INFO("vertex " << i);
+      const int file = i < 5 ? i : static_cast<int>(std::lround(w[i] - 10.0));
+      CHECK(p.row(i) == p.row(file));
+    }
+    CHECK(w.tail(3) == Eigen::Vector3d(10.0, 11.0, 14.0));
+    CHECK(mesh.elementScalar("area") == Eigen::Vector3d(1.0, 2.0, 3.0));
+    CHECK(f.row(2).minCoeff() >= 5);
+  }
 }
 
 TEST_CASE("a mesh file name with a NUL byte is refused before anything else", "[io][hostile]") {

@@ -30,6 +30,7 @@
 #include <iomanip>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string_view>
 
@@ -238,38 +239,50 @@ bool oneWord(const std::string& name) {
   return printableAscii(name) && name.find(' ') == std::string::npos;
 }
 
-/// ASCII PLY: points (double; n x 3, an Eigen matrix or view), optional vertex quality (double)
-/// with viridis colours, faces with optional face quality (double). `vname` and `fname`, when
-/// not empty, are the properties the qualities hold, written as header comments that readMesh
-/// reads them back by.
+/// A column of doubles in a PLY: the file's property and, when not empty, the mesh property
+/// it holds, which a header comment names for readMesh.
+struct PlyColumn {
+  std::string property;
+  std::string name;
+  Eigen::VectorXd values;
+};
+
+/// ASCII PLY: points (double; n x 3, an Eigen matrix or view) and triangles, each with its
+/// columns; with `colors`, viridis colours over the vertex quality (the column "quality").
 template <typename Points>
 void writePly(std::ostream& stream, const Points& points, const Eigen::MatrixXi& faces,
-              const Eigen::VectorXd* vquality, const Eigen::VectorXd* fquality, bool colors,
-              const std::string& vname = "", const std::string& fname = "") {
+              const std::vector<PlyColumn>& vertexColumns,
+              const std::vector<PlyColumn>& faceColumns, bool colors) {
   TextOut out(&stream);
-  colors = colors && vquality != nullptr;
+  const PlyColumn* quality = nullptr;
+  for (const auto& c : vertexColumns)
+    if (c.property == "quality") quality = &c;
+  colors = colors && quality != nullptr;
   out << "ply\nformat ascii 1.0\ncomment diffreg\n";
-  if (vquality && oneWord(vname)) out << "comment diffreg vertex quality " << vname << "\n";
-  if (fquality && oneWord(fname)) out << "comment diffreg face quality " << fname << "\n";
+  for (const auto* columns : {&vertexColumns, &faceColumns})
+    for (const auto& c : *columns)
+      if (!c.name.empty())
+        out << "comment diffreg " << (columns == &vertexColumns ? "vertex " : "face ")
+            << (c.property == "quality" ? "quality " : "property ") << c.name << "\n";
   out << "element vertex " << points.rows() << "\n";
   out << "property double x\nproperty double y\nproperty double z\n";
-  if (vquality) out << "property double quality\n";
+  for (const auto& c : vertexColumns) out << "property double " << c.property << "\n";
   if (colors) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   out << "element face " << faces.rows() << "\nproperty list uchar int vertex_indices\n";
-  if (fquality) out << "property double quality\n";
+  for (const auto& c : faceColumns) out << "property double " << c.property << "\n";
   out << "end_header\n";
   writeRows(out, static_cast<int>(points.rows()), [&](TextOut& o, int i) {
     writePoint(o, points, i);
-    if (vquality) o << ' ' << (*vquality)[i];
+    for (const auto& c : vertexColumns) o << ' ' << c.values[i];
     if (colors) {
-      const auto rgb = viridis((*vquality)[i]);
+      const auto rgb = viridis(quality->values[i]);
       o << ' ' << int(rgb[0]) << ' ' << int(rgb[1]) << ' ' << int(rgb[2]);
     }
     o << '\n';
   });
   writeRows(out, static_cast<int>(faces.rows()), [&](TextOut& o, int k) {
     o << "3 " << faces(k, 0) << ' ' << faces(k, 1) << ' ' << faces(k, 2);
-    if (fquality) o << ' ' << (*fquality)[k];
+    for (const auto& c : faceColumns) o << ' ' << c.values[k];
     o << '\n';
   });
 }
@@ -292,29 +305,6 @@ void writeObjOff(std::ostream& stream, const Mesh& mesh, bool obj) {
   });
 }
 
-/// The qualities of a PLY that names what they hold (diffreg's writer) as those properties of
-/// `mesh`, one value per vertex and face of the file. Where building the mesh added vertices
-/// (split faces) or faces (polygons), the values no longer fit it: a warning says so.
-void keepPlyQuality(const RawMesh& raw, Mesh& mesh, const std::string& path) {
-  const auto keep = [&](bool vertex, const std::string& name, const std::vector<double>& v) {
-    if (name.empty()) return;
-    const int count = vertex ? mesh.numVertices() : mesh.numElements();
-    if (static_cast<int>(v.size()) != count) {
-      warn(path + ": the " + (vertex ? "vertex" : "face") + " quality (" + name +
-           ") is not kept: the mesh has " + std::to_string(count) + " " +
-           (vertex ? "vertices" : "faces") + " where the file has " + std::to_string(v.size()));
-      return;
-    }
-    const Eigen::VectorXd values = Eigen::Map<const Eigen::VectorXd>(v.data(), count);
-    if (vertex)
-      mesh.setVertexScalar(name, values);
-    else
-      mesh.setElementScalar(name, values);
-  };
-  keep(true, raw.vertexQualityName, raw.vertexQuality);
-  keep(false, raw.faceQualityName, raw.faceQuality);
-}
-
 }  // namespace
 
 std::string extensionOf(const std::string& path) {
@@ -335,9 +325,7 @@ Mesh readMesh(const std::string& path) {
   } else if (ext == "off") {
     mesh = Mesh(buildTriMesh(parseOff(text(), path), path));
   } else if (ext == "ply") {
-    const RawMesh raw = parsePly(text(), path);
-    mesh = Mesh(buildTriMesh(raw, path));
-    keepPlyQuality(raw, mesh, path);
+    mesh = buildMesh(parsePly(text(), path), path);
   } else if (ext == "om") {
     mesh = parseOm(text(), path);
   } else if (ext == "mesh" || ext == "node" || ext == "ele") {
@@ -468,36 +456,58 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
       scalar(false, name);
     }
   }
+  // PLY: the chosen vertex and face properties as "quality" (which MeshLab shows), every other
+  // named property as a property of the same name; each named in the header for readMesh.
+  const auto plyColumns = [&](bool vertex, std::vector<PlyColumn>& columns) {
+    const std::string& quality = vertex ? options.vertexQuality : options.faceQuality;
+    if (auto v = scalar(vertex, quality)) {
+      if (!oneWord(quality))
+        warn("writing " + quote(path) + ": the property " + quote(quality) +
+             " goes out as quality without its name (not one word of printable ASCII), so "
+             "reading the file back will not restore it");
+      columns.push_back({"quality", oneWord(quality) ? quality : "", std::move(*v)});
+    }
+    static const std::set<std::string> taken = {
+        "x",     "y",    "z",     "quality",        "red",
+        "green", "blue", "alpha", "vertex_indices", "vertex_index"};
+    for (const auto& name : vertex ? mesh.vertexScalarNames() : mesh.elementScalarNames()) {
+      if (name == quality && !columns.empty()) continue;
+      if (!oneWord(name) || taken.count(name)) {
+        warn("writing " + quote(path) + ": the " + (vertex ? "vertex" : "element") + " property " +
+             quote(name) + " is not written (" +
+             (taken.count(name) ? "PLY has a property of that name already"
+                                : "a PLY property name is one word of printable ASCII") +
+             "); .om keeps it");
+        continue;
+      }
+      columns.push_back({name, name, *scalar(vertex, name)});
+    }
+  };
   writeFileAtomically(path, [&](std::ostream& out) {
     if (ext == "mesh") {
       writeMedit(out, mesh.tet());
     } else if (ext == "ply") {
-      auto vq = scalar(true, options.vertexQuality);
-      auto fq = scalar(false, options.faceQuality);
-      for (const auto& [given, name] : {std::pair{vq.has_value(), &options.vertexQuality},
-                                        std::pair{fq.has_value(), &options.faceQuality}})
-        if (given && !oneWord(*name))
-          warn("writing " + quote(path) + ": the property " + quote(*name) +
-               " goes out as quality without its name (not one word of printable ASCII), so "
-               "reading the file back will not restore it");
+      std::vector<PlyColumn> vertexColumns, faceColumns;
+      plyColumns(true, vertexColumns);
+      plyColumns(false, faceColumns);
       if (mesh.isTet()) {
         const BoundarySurface b = boundarySurface(mesh.tet());
-        std::optional<Eigen::VectorXd> bvq, bfq;
-        if (vq) {
-          bvq = Eigen::VectorXd(b.vertexIds.size());
-          for (size_t i = 0; i < b.vertexIds.size(); ++i) (*bvq)[i] = (*vq)[b.vertexIds[i]];
-        }
-        if (fq) {
-          bfq = Eigen::VectorXd(b.element.size());
-          for (size_t k = 0; k < b.element.size(); ++k) (*bfq)[k] = (*fq)[b.element[k]];
-        }
         // The boundary's vertices carry the tets' vertex values and read back as them; its
-        // faces carry their tet's value, which is no value of the faces: left unnamed.
-        writePly(out, b.points, b.faces, bvq ? &*bvq : nullptr, bfq ? &*bfq : nullptr,
-                 options.colors, options.vertexQuality);
+        // faces carry their tet's values, which are no values of the faces: left unnamed.
+        for (auto& c : vertexColumns) {
+          Eigen::VectorXd v(b.vertexIds.size());
+          for (size_t i = 0; i < b.vertexIds.size(); ++i) v[i] = c.values[b.vertexIds[i]];
+          c.values = std::move(v);
+        }
+        for (auto& c : faceColumns) {
+          Eigen::VectorXd v(b.element.size());
+          for (size_t k = 0; k < b.element.size(); ++k) v[k] = c.values[b.element[k]];
+          c.values = std::move(v);
+          c.name.clear();
+        }
+        writePly(out, b.points, b.faces, vertexColumns, faceColumns, options.colors);
       } else {
-        writePly(out, mesh.points(), mesh.elements(), vq ? &*vq : nullptr, fq ? &*fq : nullptr,
-                 options.colors, options.vertexQuality, options.faceQuality);
+        writePly(out, mesh.points(), mesh.elements(), vertexColumns, faceColumns, options.colors);
       }
     } else if (ext == "obj" || ext == "off") {
       writeObjOff(out, mesh, ext == "obj");

@@ -14,7 +14,8 @@ namespace diffreg {
 /// found beside it) in double precision (mesh/parse.h), then validates it (see validateMesh).
 /// Polygonal faces are ear-clipped in their plane, with a warning. Files are read through
 /// readFileLimited (regular files of at most limits::meshBytes). A PLY whose header names
-/// what its vertex or face quality holds (writeMesh) gives those properties back.
+/// what its vertex or face properties hold (writeMesh) gives those properties back, as .om
+/// gives its double properties: through polygons and split faces (buildMesh).
 /// \throw IoError missing, unreadable, special or oversized file, unknown extension.
 /// \throw InvalidMesh malformed content, counts the file cannot hold, values beyond double,
 ///        empty, out-of-range indices, bad polygons, degenerate elements, inverted tets, a
@@ -40,8 +41,11 @@ struct WriteOptions {
 /// that reads back exactly). The file is written to a temporary name beside `path` and
 /// renamed into place, so a failed write leaves any existing file untouched. A PLY names the
 /// properties its qualities hold in header comments ("comment diffreg vertex quality
-/// diffreg:weight"), which readMesh reads them back as; a tet mesh's boundary names its vertex
-/// quality only (its faces carry their tets' values).
+/// diffreg:weight") and writes every other named property as a PLY property of that name
+/// ("comment diffreg face property diffreg:smoothness"; names that are not one word of
+/// printable ASCII, or PLY's own such as "x", are left out with a warning), which readMesh
+/// reads back as those properties; a tet mesh's boundary names its vertex values only (its
+/// faces carry their tets' values).
 /// \throw IoError unknown or unsupported extension for the mesh kind, write failure.
 /// \throw InvalidMesh non-finite coordinates or written property values (nothing is written).
 void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});

@@ -272,16 +272,17 @@ class OmReader {
       warn(src_ + ": skipped a property whose name is not printable ASCII");
       return in_.skip(block, 1, where(c));
     }
-    Eigen::VectorXd values(static_cast<Eigen::Index>(n));
+    std::vector<double> values(static_cast<size_t>(n));
     const char* element = c.entity == kVertex ? "vertex " : "face ";
     for (std::uint64_t i = 0; i < n; ++i) {
-      values[static_cast<Eigen::Index>(i)] = in_.real(true, "");
-      if (!std::isfinite(values[static_cast<Eigen::Index>(i)])) {
+      values[i] = in_.real(true, "");
+      if (!std::isfinite(values[i])) {
         throw InvalidMesh(src_ + ": property '" + c.name + "' of " + element + std::to_string(i) +
                           " (0-based) is not finite");
       }
     }
-    (c.entity == kVertex ? vertexProps_ : faceProps_).emplace_back(c.name, std::move(values));
+    (c.entity == kVertex ? raw_.vertexValues : raw_.faceValues)
+        .push_back({c.name, "", std::move(values)});
   }
 
   // The faces of a version 2 file: the half-edge loop of each, every half-edge in one face.
@@ -318,30 +319,8 @@ class OmReader {
       throw InvalidMesh(src_ + ": the header says " + std::to_string(numFaces_) +
                         " faces, the file holds " + std::to_string(raw_.faces.size()));
     }
-    bool triangles = true;
-    for (const auto& f : raw_.faces) triangles = triangles && f.ids.size() == 3;
     raw_.points = std::move(points_);
-    Mesh mesh(buildTriMesh(raw_, src_));
-    attach(mesh, vertexProps_, mesh.numVertices() == static_cast<int>(numVertices_), true);
-    attach(mesh, faceProps_, triangles && mesh.numElements() == static_cast<int>(numFaces_), false);
-    return mesh;
-  }
-
-  void attach(Mesh& mesh, const std::vector<std::pair<std::string, Eigen::VectorXd>>& props,
-              bool fits, bool vertex) {
-    if (props.empty()) return;
-    if (!fits) {
-      warn(src_ + ": " + std::to_string(props.size()) + (vertex ? " vertex" : " face") +
-           " properties dropped: the " + (vertex ? "vertices" : "faces") +
-           " changed while the mesh was built");
-      return;
-    }
-    for (const auto& [name, values] : props) {
-      if (vertex)
-        mesh.setVertexScalar(name, values);
-      else
-        mesh.setElementScalar(name, values);
-    }
+    return buildMesh(raw_, src_);
   }
 
   Cursor in_;
@@ -353,8 +332,7 @@ class OmReader {
   bool hasPoints_ = false;
   std::vector<Eigen::Vector3d> points_;
   std::vector<int> next_, toVertex_, face_, faceHalfedge_;
-  RawMesh raw_;
-  std::vector<std::pair<std::string, Eigen::VectorXd>> vertexProps_, faceProps_;
+  RawMesh raw_;  // the named values in its vertexValues and faceValues
 };
 
 }  // namespace

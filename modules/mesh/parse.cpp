@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <iterator>
+#include <numeric>
 #include <optional>
 
 namespace diffreg {
@@ -608,8 +609,33 @@ struct PlyHeader {
   std::vector<PlyElement> elements;
   size_t dataStart = 0;
   int dataLine = 0;
-  std::string vertexQualityName, faceQualityName;  // "comment diffreg vertex|face quality NAME"
+  /// What the header says vertex and face properties hold: (file property, mesh property),
+  /// from "comment diffreg vertex|face quality NAME" and "... property NAME".
+  std::vector<std::pair<std::string, std::string>> vertexNamed, faceNamed;
 };
+
+/// Takes a header comment "diffreg vertex|face quality|property NAME" into `h`; a second one
+/// for the same file property or the same name is ignored with a warning.
+void takeNamingComment(const std::vector<std::string_view>& t, const std::string& where,
+                       PlyHeader& h) {
+  const bool quality = t[3] == "quality";
+  const std::string what = std::string(t[2]) + (quality ? " quality" : " property");
+  // A property name is printable ASCII (as the writer and the .om reader have it).
+  if (!printableAscii(t[4])) {
+    warn(where + ": the " + what + "'s name " + visible(t[4]) + " is not printable ASCII; the " +
+         what + " is not kept");
+    return;
+  }
+  auto& named = t[2] == "vertex" ? h.vertexNamed : h.faceNamed;
+  const std::string property = quality ? "quality" : std::string(t[4]), name(t[4]);
+  for (const auto& [p, n] : named) {
+    if (p == property || n == name) {
+      warn(where + ": " + quote(name) + " is named a second time; the first naming is kept");
+      return;
+    }
+  }
+  named.emplace_back(property, name);
+}
 
 PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
   PlyHeader h;
@@ -631,15 +657,9 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
       if (t.size() != 1 || t[0] != "ply") throw InvalidMesh(where + ": not a PLY file (no 'ply')");
       continue;
     }
-    if (t.size() == 5 && t[0] == "comment" && t[1] == "diffreg" && t[3] == "quality" &&
-        (t[2] == "vertex" || t[2] == "face")) {
-      // A property name is printable ASCII (as the writer and the .om reader have it).
-      if (!printableAscii(t[4]))
-        warn(where + ": the " + std::string(t[2]) + " quality's name " + visible(t[4]) +
-             " is not printable ASCII; the quality is not kept");
-      else
-        (t[2] == "vertex" ? h.vertexQualityName : h.faceQualityName) = std::string(t[4]);
-    }
+    if (t.size() == 5 && t[0] == "comment" && t[1] == "diffreg" &&
+        (t[3] == "quality" || t[3] == "property") && (t[2] == "vertex" || t[2] == "face"))
+      takeNamingComment(t, where, h);
     if (t.empty() || t[0] == "comment" || t[0] == "obj_info") continue;
     if (t[0] == "end_header") break;
     if (t[0] == "format") {
@@ -827,15 +847,23 @@ class PlyValues {
 };
 
 /// Reads the `e.count` elements of `e`; vertices and faces go to `raw`, others are skipped.
-void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& source, RawMesh& raw) {
+/// `named` says which of their properties hold which mesh property (the header's comments).
+void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& source,
+                    const std::vector<std::pair<std::string, std::string>>& named, RawMesh& raw) {
   const bool vertex = e.name == "vertex", face = e.name == "face";
   const int xyz[3] = {findProperty(e, {"x"}), findProperty(e, {"y"}), findProperty(e, {"z"})};
   const int ids = findProperty(e, {"vertex_indices", "vertex_index"});
-  // The quality, where the header names what it holds (diffreg's own files).
-  const bool named = vertex ? !raw.vertexQualityName.empty() : face && !raw.faceQualityName.empty();
-  int quality = named ? findProperty(e, {"quality"}) : -1;
-  if (quality >= 0 && e.props[quality].isList()) quality = -1;
-  std::vector<double>* qualities = vertex ? &raw.vertexQuality : &raw.faceQuality;
+  // The named values (diffreg's own files): the column of each scalar property named, -1 else.
+  std::vector<RawMesh::Values>& columns = vertex ? raw.vertexValues : raw.faceValues;
+  std::vector<int> column(e.props.size(), -1);
+  if (vertex || face) {
+    for (const auto& [property, name] : named) {
+      const int i = findProperty(e, {property.c_str()});
+      if (i < 0 || e.props[i].isList()) continue;
+      column[i] = static_cast<int>(columns.size());
+      columns.push_back({name, property, {}});
+    }
+  }
   const std::string where = source + ":" + std::to_string(e.line);
   if (vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
     throw InvalidMesh(where + ": the vertex element has no x, y and z");
@@ -860,9 +888,12 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
       const double v = in.next(prop, PlyValues::Part::Value);
       for (int c = 0; c < 3; ++c)
         if (vertex && static_cast<int>(i) == xyz[c]) p[c] = v;
-      if (static_cast<int>(i) == quality) {
-        if (!std::isfinite(v)) throw InvalidMesh(in.where() + " has a non-finite quality");
-        qualities->push_back(v);
+      if (column[i] >= 0) {
+        if (!std::isfinite(v))
+          throw InvalidMesh(
+              in.where() + " has a non-finite " +
+              (prop.name == "quality" ? std::string("quality") : "value of " + quote(prop.name)));
+        columns[column[i]].values.push_back(v);
       }
     }
     if (vertex) {
@@ -886,13 +917,10 @@ RawMesh parsePly(std::string_view text, const std::string& source) {
     need += static_cast<std::uint64_t>(e.count) * e.minBytes(h.format);
   }
   RawMesh raw;
-  raw.vertexQualityName = h.vertexQualityName;
-  raw.faceQualityName = h.faceQualityName;
   PlyValues values(text, h, source);
-  for (const PlyElement& e : h.elements) readPlyElement(values, e, source, raw);
+  for (const PlyElement& e : h.elements)
+    readPlyElement(values, e, source, e.name == "vertex" ? h.vertexNamed : h.faceNamed, raw);
   values.finish();
-  if (raw.vertexQuality.empty()) raw.vertexQualityName.clear();
-  if (raw.faceQuality.empty()) raw.faceQualityName.clear();
   return raw;
 }
 
@@ -1170,12 +1198,16 @@ class SplittingImporter : public OpenMesh::IO::ImporterT<TriMesh> {
     if (mesh_.n_vertices() > before) {
       duplicated += static_cast<int>(mesh_.n_vertices() - before);
       ++splitFaces;
+      // OpenMesh copies each corner of the face, in order (ImporterT::add_face).
+      for (size_t j = 0; j < mesh_.n_vertices() - before; ++j)
+        copied.push_back(indices[std::min(j, indices.size() - 1)].idx());
     }
     return fh;
   }
 
   int duplicated = 0;
   int splitFaces = 0;
+  std::vector<int> copied;  ///< the vertex each appended copy repeats
 
  private:
   TriMesh& mesh_;
@@ -1235,6 +1267,47 @@ OpenMeshQuiet::~OpenMeshQuiet() {
 }
 
 std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& source) {
+  BuildOrigin origin;
+  return buildTriMesh(raw, source, origin);
+}
+
+Mesh buildMesh(const RawMesh& raw, const std::string& source) {
+  BuildOrigin origin;
+  Mesh mesh(buildTriMesh(raw, source, origin));
+  const auto attach = [&](bool vertex, const RawMesh::Values& v) {
+    const size_t fileCount = vertex ? raw.points.size() : raw.faces.size();
+    if (v.values.size() != fileCount) {  // a file with two vertex or face elements
+      warn(source + ": the " + (vertex ? "vertex" : "face") + " values of " + quote(v.name) +
+           " are not kept: the file has " + std::to_string(v.values.size()) + " of them for " +
+           std::to_string(fileCount) + (vertex ? " vertices" : " faces"));
+      return;
+    }
+    const int count = vertex ? mesh.numVertices() : mesh.numElements();
+    const size_t traced = vertex ? fileCount + origin.copied.size()
+                                 : (origin.faceOf.empty() ? fileCount : origin.faceOf.size());
+    if (traced != static_cast<size_t>(count))
+      throw std::logic_error("buildMesh: the origin of the built mesh is not known");
+    Eigen::VectorXd values(count);
+    for (int i = 0; i < count; ++i) {
+      const size_t from = vertex ? (static_cast<size_t>(i) < fileCount
+                                        ? i
+                                        : origin.copied[static_cast<size_t>(i) - fileCount])
+                                 : (origin.faceOf.empty() ? i : origin.faceOf[i]);
+      values[i] = v.values[from];
+    }
+    if (vertex)
+      mesh.setVertexScalar(v.name, values);
+    else
+      mesh.setElementScalar(v.name, values);
+  };
+  for (const auto& v : raw.vertexValues) attach(true, v);
+  for (const auto& v : raw.faceValues) attach(false, v);
+  return mesh;
+}
+
+std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& source,
+                                      BuildOrigin& origin) {
+  origin = {};
   OpenMeshQuiet quiet;
   const long long n = static_cast<long long>(raw.points.size());
   if (n > 2000000000LL) throw InvalidMesh(source + ": more than 2e9 vertices");
@@ -1262,6 +1335,7 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
     if (f.ids.size() == 3) {  // the common case, without a list of triangles
       for (int j = 0; j < 3; ++j) corners[j] = OpenMesh::VertexHandle(static_cast<int>(f.ids[j]));
       importer.add_face(corners);
+      if (!origin.faceOf.empty()) origin.faceOf.push_back(static_cast<int>(k));
     } else {
       const std::string where = source + (f.line > 0 ? ":" + std::to_string(f.line) : "") +
                                 ": face " + std::to_string(k + raw.base);
@@ -1280,9 +1354,14 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
           triangulatePolygon(raw.points, f.ids, where);
       ++polygons;
       triangles += static_cast<int>(tris.size());
+      if (origin.faceOf.empty()) {  // the faces before were the file's, one to one
+        origin.faceOf.resize(tri.n_faces());
+        std::iota(origin.faceOf.begin(), origin.faceOf.end(), 0);
+      }
       for (const auto& t : tris) {
         for (int j = 0; j < 3; ++j) corners[j] = OpenMesh::VertexHandle(static_cast<int>(t[j]));
         importer.add_face(corners);
+        origin.faceOf.push_back(static_cast<int>(k));
       }
     }
     // Each split face copies its vertices: a file of repeated faces would grow ~100 bytes of
@@ -1300,6 +1379,7 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
     warn(source + ": triangulated " + std::to_string(polygons) + " polygonal faces into " +
          std::to_string(triangles) + " triangles");
   }
+  origin.copied = std::move(importer.copied);
   if (importer.splitFaces > 0) {
     warn(source + ": " + std::to_string(importer.splitFaces) +
          " faces would make the mesh non-manifold; each was split off with its own copies of "

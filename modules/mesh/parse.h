@@ -38,11 +38,14 @@ struct RawMesh {
   std::vector<Eigen::Vector3d> points;
   std::vector<RawFace> faces;
   int base = 0;  ///< the file's first vertex and face number in messages (OBJ: 1)
-  /// PLY written by diffreg: the property its vertex and face "quality" hold (the header's
-  /// "comment diffreg vertex quality NAME", "... face quality NAME"), and their values, one per
-  /// vertex and face as read; empty for any other file.
-  std::string vertexQualityName, faceQualityName;
-  std::vector<double> vertexQuality, faceQuality;
+  /// Named values the file carries, one per vertex (face) of the file: a PLY written by
+  /// diffreg (its header names what the properties hold), an .om file's double properties.
+  struct Values {
+    std::string name;      ///< the mesh property they are ("diffreg:weight")
+    std::string property;  ///< PLY: the file's property that holds them ("quality")
+    std::vector<double> values;
+  };
+  std::vector<Values> vertexValues, faceValues;
 };
 
 /// OBJ's v and f lines. The other OBJ statements (vt, vn, g, usemtl, free-form geometry, ...)
@@ -57,8 +60,10 @@ namespace detail {
 RawMesh parseObjByTokens(std::string_view text, const std::string& source);
 }  // namespace detail
 RawMesh parseOff(std::string_view text, const std::string& source);
-/// PLY (ASCII or binary). The "quality" of vertices and faces is kept (RawMesh) only in files
-/// whose header names the property it holds, as diffreg's writer does.
+/// PLY (ASCII or binary). A vertex or face property is kept (RawMesh::Values) only where the
+/// header names the mesh property it holds, as diffreg's writer does: "comment diffreg vertex
+/// quality NAME" for the quality, "comment diffreg vertex property NAME" for the property
+/// called NAME (faces alike).
 RawMesh parsePly(std::string_view text, const std::string& source);
 TetMesh parseMedit(std::string_view text, const std::string& source);
 TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::string_view ele,
@@ -72,5 +77,23 @@ TetMesh parseTetgen(std::string_view node, const std::string& nodeSource, std::s
 /// (halfedges.h), to the same mesh.
 /// \throw InvalidMesh naming `source`, the line and the face.
 std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& source);
+
+/// Where the vertices and faces of a mesh built by buildTriMesh come from in the file.
+struct BuildOrigin {
+  /// The file's vertex each appended copy repeats: vertex `numFileVertices + i` of the mesh is
+  /// a copy of `copied[i]` (faces split off as non-manifold).
+  std::vector<int> copied;
+  /// The file's face of each face of the mesh; empty when they are the file's, one to one
+  /// (no polygon was triangulated).
+  std::vector<int> faceOf;
+};
+/// buildTriMesh, also telling where each vertex and face of the mesh comes from.
+std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& source,
+                                      BuildOrigin& origin);
+
+/// The mesh of `raw` (buildTriMesh) with the file's named values (RawMesh::Values) as its
+/// vertex and element scalars: a vertex copy takes the value of the vertex it copies, each
+/// triangle of a polygon the polygon's.
+Mesh buildMesh(const RawMesh& raw, const std::string& source);
 
 }  // namespace diffreg

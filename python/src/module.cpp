@@ -382,7 +382,8 @@ void bindFiles(py::module_& m) {
         "Writes OBJ/OFF/PLY/OM (triangles) or .mesh/PLY boundary (tets), atomically. "
         "vertex_properties / element_properties: dicts name -> (n,) / (m,) arrays. PLY writes "
         "the property `vertex_quality` as vertex quality (with viridis colours when colors) and "
-        "`face_quality` as face quality; .om keeps all of them.");
+        "`face_quality` as face quality, and every other property under its own name (names "
+        "that are one word of printable ASCII); .om keeps all of them.");
 }
 
 // run() and filters(): whole pipelines of the tool's filters and their tables.

@@ -57,8 +57,9 @@ const char* kUsage =
     "Applies the filters in the order given to the mesh IN and writes OUT; the extension of\n"
     "OUT picks the format (obj, off, ply, om for triangle meshes; mesh, or ply for the boundary\n"
     "surface of a tet mesh); -o may be repeated. PLY output carries the weights as vertex\n"
-    "quality and colours and the distortion as face quality. Without --filter the mesh\n"
-    "is only converted. Nothing is written when anything fails.\n"
+    "quality and colours, the distortion as face quality and every other named property\n"
+    "under its own name. Without --filter the mesh is only converted. Nothing is written\n"
+    "when anything fails.\n"
     "-s runs the filters of a MeshLab FilterScript (.mlx) first, then any --filter ones.\n";
 
 /// Wraps `text` to `width` columns, each line starting with `indent`.
