@@ -11,6 +11,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <map>
 #include <string>
 
 using namespace diffreg;
@@ -24,7 +25,9 @@ nlohmann::json runEdit(const Document& input, const std::string& regularization,
   Document doc = input;
   Pipeline p;
   p.add("diffuse_weights", {{"t", std::to_string(t)}});
-  p.add("deform", {{"regularization", regularization}, {"beta", std::to_string(beta)}});
+  std::map<std::string, std::string> values{{"regularization", regularization}};
+  if (regularization == "uniform") values["beta"] = std::to_string(beta);
+  p.add("deform", values);
   p.add("measure");
   const nlohmann::json report = p.run(doc);
   if (result) *result = doc;
@@ -159,4 +162,29 @@ TEST_CASE("deform rejects bad input before any work", "[filter][deform]") {
   Pipeline q;
   q.add("deform");
   CHECK_THROWS_AS(q.run(free), Error);
+}
+
+TEST_CASE("deform names the parameters it was given that have no effect", "[filter][deform]") {
+  const Document bar = Document::load(shipped("bar.obj"), shipped("bar-bend.json"));
+  const auto warned = [&](const std::map<std::string, std::string>& values) {
+    Document doc = bar;
+    Pipeline p;
+    p.add("deform", values);
+    return stderrOf([&] { p.run(doc); });
+  };
+  CHECK(warned({{"beta", "0.3"}}) ==
+        "diffreg: warning: deform: beta=0.3 is ignored: it is the strength of "
+        "regularization=uniform (here none)\n");
+  CHECK(warned({{"local_step", "reference"}, {"acceleration", "anderson"}, {"iterations", "300"}})
+            .find("acceleration=anderson is ignored: it accelerates the exact local step only") !=
+        std::string::npos);
+  const std::string linear =
+      warned({{"energy", "dirichlet"}, {"iterations", "5"}, {"acceleration", "none"}});
+  CHECK(linear.find("iterations=5 is ignored: energy=dirichlet on a planar mesh is solved in one "
+                    "linear step") != std::string::npos);
+  CHECK(linear.find("acceleration=none is ignored") != std::string::npos);
+  // What applies, or takes its default, is not warned about.
+  CHECK(warned({{"regularization", "uniform"}, {"beta", "0.3"}, {"iterations", "300"}}).empty());
+  CHECK(warned({{"energy", "dirichlet"}}).empty());
+  CHECK(warned({{"local_step", "reference"}, {"iterations", "300"}}).empty());
 }

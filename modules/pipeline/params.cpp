@@ -197,6 +197,7 @@ ParamMap::ParamMap(const std::string& filter, const std::vector<ParamSpec>& spec
   for (const auto& spec : specs) {
     const auto it = values.find(spec.name);
     text_[spec.name] = canonical(filter, spec, it != values.end() ? it->second : spec.defaultValue);
+    if (it != values.end()) given_.insert(spec.name);
   }
 }
 

@@ -5,6 +5,7 @@
 #include <diffreg/core/names.h>
 
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -57,11 +58,14 @@ class ParamMap {
   std::string getString(const std::string& name) const;  ///< Enum and String
   /// The canonical text of every value (for reports and scripts).
   const std::map<std::string, std::string>& text() const { return text_; }
+  /// Whether the caller gave `name` (rather than taking its default).
+  bool given(const std::string& name) const { return given_.count(name) > 0; }
 
  private:
   const std::string& raw(const std::string& name) const;
   std::string filter_;
   std::map<std::string, std::string> text_;
+  std::set<std::string> given_;
 };
 
 /// Shortest text that reads back (strtod) as exactly `value`: plain decimals when no longer

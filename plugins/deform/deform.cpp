@@ -4,11 +4,12 @@
 #include <diffreg/core/log.h>
 #include <diffreg/core/timer.h>
 
-#include "deform/measure.h"
-#include <diffreg/engine/edit_engine.h>
 #include <diffreg/deformation/deformer.h>
+#include <diffreg/deformation/energy.h>
 #include <diffreg/deformation/metrics.h>
+#include <diffreg/engine/edit_engine.h>
 #include <diffreg/pipeline/params.h>
+#include "deform/measure.h"
 #include "plugins.h"
 
 #include <cstdio>
@@ -78,6 +79,25 @@ DeformationOptions deformationOptionsOf(const ParamMap& params) {
   return options;
 }
 
+void warnInapplicable(const ParamMap& params, MeshKind kind) {
+  const DeformationOptions options = deformationOptionsOf(params);
+  const auto ignored = [&](const char* name, const std::string& why) {
+    if (params.given(name))
+      warn("deform: " + std::string(name) + "=" + params.text().at(name) + " is ignored: " + why);
+  };
+  if (options.regularization != Regularization::Uniform)
+    ignored("beta", "it is the strength of regularization=uniform (here " +
+                        std::string(toString(options.regularization)) + ")");
+  if (!energyModel(options.energy).iterative(kind)) {
+    const std::string why = "energy=" + std::string(toString(options.energy)) + " on a " +
+                            toString(kind) + " mesh is solved in one linear step";
+    for (const char* name : {"local_step", "acceleration", "iterations", "tolerance"})
+      ignored(name, why);
+  } else if (options.localStep == LocalStep::Reference) {
+    ignored("acceleration", "it accelerates the exact local step only (local_step=reference)");
+  }
+}
+
 namespace {
 
 /// The terminal's word that a run ended unconverged (the report has it as `converged`), with
@@ -106,6 +126,7 @@ FilterResult DeformFilter::apply(Document& doc, const ParamMap& params) const {
   EditEngine& engine = doc.engine();  // the discretization is built here unless cached
   const double discretization = timer.seconds();
   const DeformationOptions options = deformationOptionsOf(params);
+  warnInapplicable(params, doc.mesh.kind());
   EditParams edit = editParamsOf(options);
   if (options.regularization == Regularization::Nonuniform)
     edit.givenWeights = doc.mesh.vertexScalar(prop::weight);

@@ -152,7 +152,9 @@ class PyDeformationSession {
   PyDeformationSession(const py::object& V, const py::object& E, const py::object& weights,
                        const py::kwargs& kwargs)
       : shape_(std::make_unique<Shape>(V, E)) {
-    DeformationOptions options = deformationOptionsOf(paramsOf("deform", toParamText(kwargs)));
+    const ParamMap params = paramsOf("deform", toParamText(kwargs));
+    warnInapplicable(params, shape_->mesh.kind());
+    DeformationOptions options = deformationOptionsOf(params);
     checkWeightsFor("DeformationSession", toString(options.regularization), weights);
     if (!weights.is_none())
       options.weights = toVector(weights, "weights", shape_->mesh.numVertices());

@@ -271,6 +271,11 @@ def test_warnings_go_through_the_warnings_module(tmp_path, capfd):
     spare = np.vstack([V, [[100.0, 100.0, 0.0]]])
     with pytest.warns(diffreg.DiffregWarning, match="unreferenced"):
         diffreg.DeformationSession(spare, E)
+    # A parameter given that the others leave without effect is named, in deform() and sessions.
+    with pytest.warns(diffreg.DiffregWarning, match="beta=0.3 is ignored"):
+        diffreg.deform(V, E, handles, targets, beta=0.3)
+    with pytest.warns(diffreg.DiffregWarning, match="acceleration=anderson is ignored"):
+        diffreg.DeformationSession(V, E, local_step="reference", acceleration="anderson")
     # Nothing of it reaches stderr, and the warnings filters apply: "error" raises.
     assert "warning" not in capfd.readouterr().err
     with warnings.catch_warnings():
