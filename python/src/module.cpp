@@ -5,6 +5,7 @@
 #include "progress.h"
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/staged_outputs.h>
 #include <diffreg/deformation/metrics.h>
 #include <diffreg/deformation/regularizer.h>
 #include <diffreg/discretization/discretization.h>
@@ -270,7 +271,12 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
     const auto [name, values] = parseFilterSpec(item.cast<std::string>());
     pipeline.add(name, values);
   }
+  // Files the filters write (render's PNG) appear together when the whole run succeeds, as
+  // the tool's outputs do: a step that fails leaves none of them behind, nor clobbers any.
+  StagedOutputs staged;
+  doc.outputFile = [&staged](const std::string& path) { return staged.stage(path); };
   const nlohmann::json report = runWithProgress(pipeline, doc, progress);
+  staged.commit();
   py::dict out;
   out["V"] = fromMatrix(doc.mesh.positions());
   out["E"] = fromMatrix(doc.mesh.elements());

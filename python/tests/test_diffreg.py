@@ -109,6 +109,25 @@ def test_run_on_arrays_with_handle_lists():
     np.testing.assert_allclose(result["V"], X, atol=1e-12)
 
 
+def test_run_writes_the_filters_files_only_when_every_step_succeeds(tmp_path):
+    V, E, handles, targets, ranges, magnitudes = scenario("bar.obj", "bar-bend.json")
+    picture, kept = tmp_path / "w.png", tmp_path / "kept.png"
+    kept.write_bytes(b"old")
+    steps = ["diffuse_weights", f"render file={picture}", f"render file={kept}",
+             "deform regularization=nonuniform"]
+    # The third render fails, after the first two have drawn.
+    with pytest.raises(ValueError, match="is written twice"):
+        diffreg.run((V, E), steps + [f"render file={picture}"], handles=handles,
+                    targets=targets, ranges=ranges, magnitudes=magnitudes)
+    assert not picture.exists()
+    assert kept.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.png"]
+    diffreg.run((V, E), steps, handles=handles, targets=targets, ranges=ranges,
+                magnitudes=magnitudes)
+    assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert kept.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_run_names_a_handle_file_that_holds_no_handles(tmp_path):
     empty = tmp_path / "empty.json"
     empty.write_text('{"handles": []}')

@@ -2,6 +2,8 @@
 // or not at all.
 #pragma once
 
+#include <diffreg/core/staged_outputs.h>
+
 #include <boost/program_options.hpp>
 #include <nlohmann/json.hpp>
 
@@ -61,10 +63,6 @@ void parseSize(const std::string& command, const std::string& size, int& width, 
 /// \throw UsageError for anything else.
 int parseUp(const std::string& command, const std::string& up);
 
-/// `path` as an absolute path with symbolic links, "." and ".." resolved (as far as it
-/// exists): two spellings of one file give the same string.
-std::string canonicalTarget(const std::string& path);
-
 /// \throw IoError unless the directory that would hold `path` exists and is writable and
 /// `path` is not a directory or another non-regular file.
 void checkWritableDir(const std::string& path);
@@ -88,39 +86,6 @@ class ProgressPrinter {
   double after_;
   double last_ = -1.0;  // when the last line was printed (seconds since construction)
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
-};
-
-/// Files written under temporary names beside their targets (same extension, so writers that
-/// pick a format by it still do), renamed into place together by commit(). A target that is a
-/// symbolic link stays one: the file it leads to is replaced. Whatever was not
-/// committed is removed, so a failed run leaves no new or clobbered file.
-class StagedOutputs {
- public:
-  StagedOutputs() = default;
-  StagedOutputs(const StagedOutputs&) = delete;
-  StagedOutputs& operator=(const StagedOutputs&) = delete;
-  ~StagedOutputs();
-  /// Returns the temporary name to write `path` to.
-  /// \throw InvalidParameter when `path` (under any spelling) is already staged.
-  std::string stage(const std::string& path);
-  /// Stages `path` and has `write` write its temporary.
-  /// \throw IoError when writing fails, its message naming `path` where it named the temporary.
-  void stageWritten(const std::string& path, const std::function<void(const std::string&)>& write);
-  /// stageWritten with `text` for the content.
-  void stageText(const std::string& path, const std::string& text);
-  /// Renames every temporary onto its target; when a rename fails, the targets renamed so far
-  /// get back what they held (or are removed when they did not exist).
-  /// \throw IoError when a rename fails.
-  void commit();
-
- private:
-  struct Entry {
-    std::string temporary;
-    std::string target;  ///< as given (for messages)
-    std::string file;    ///< what is replaced: the target, or where its links lead (writeTarget)
-    std::string canonical;
-  };
-  std::vector<Entry> staged_;
 };
 
 /// The outputs of a table command (compare, resolution) in `vm`: -o (a picture), --report and

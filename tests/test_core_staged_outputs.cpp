@@ -1,7 +1,7 @@
-// StagedOutputs (tools/diffreg/cli.h): outputs appear together or not at all, and a failure in
+// StagedOutputs (core/staged_outputs.h): outputs appear together or not at all, and a failure in
 // the middle of the commit gives the targets already renamed their old content back.
-#include "cli.h"
 #include <diffreg/core/error.h>
+#include <diffreg/core/staged_outputs.h>
 
 #include "test_support.h"
 
@@ -27,7 +27,7 @@ std::string read(const std::string& path) {
 }  // namespace
 
 TEST_CASE("a rename that fails in the commit restores the outputs renamed before it",
-          "[cli][hostile]") {
+          "[core][hostile]") {
   TempDir tmp;
   const std::string a = tmp.file("a.txt", "old a");
   const std::string b = tmp / "b.txt";  // does not exist yet
@@ -47,7 +47,7 @@ TEST_CASE("a rename that fails in the commit restores the outputs renamed before
   CHECK(tmp.entries() == 2);  // a.txt and c.txt/: no temporary or backup left
 }
 
-TEST_CASE("one output under two spellings is staged once", "[cli][hostile]") {
+TEST_CASE("one output under two spellings is staged once", "[core][hostile]") {
   TempDir tmp;
   StagedOutputs staged;
   staged.stage(tmp / "a.ply");
@@ -56,7 +56,7 @@ TEST_CASE("one output under two spellings is staged once", "[cli][hostile]") {
         canonicalTarget((tmp.path / "x" / ".." / "a.ply").string()));
 }
 
-TEST_CASE("an output that is a symbolic link stays one", "[cli][hostile]") {
+TEST_CASE("an output that is a symbolic link stays one", "[core][hostile]") {
   TempDir tmp;
   fs::create_directories(tmp.path / "data");
   const std::string real = tmp.file("data/real.ply", "old");
@@ -77,7 +77,7 @@ TEST_CASE("an output that is a symbolic link stays one", "[cli][hostile]") {
 }
 
 TEST_CASE("an output link to a file of another extension is written in the output's format",
-          "[cli][hostile]") {
+          "[core][hostile]") {
   // -o res.ply asks for PLY: that res.ply leads to res.obj does not make it OBJ.
   TempDir tmp;
   const std::string real = tmp.file("res.obj", "");
@@ -89,7 +89,7 @@ TEST_CASE("an output link to a file of another extension is written in the outpu
   CHECK(fs::path(temporary).parent_path() == fs::path(real).parent_path());
 }
 
-TEST_CASE("a staged write that fails names the output, not its temporary", "[cli][hostile]") {
+TEST_CASE("a staged write that fails names the output, not its temporary", "[core][hostile]") {
   TempDir tmp;
   const std::string out = tmp / "out.ply";
   StagedOutputs staged;

@@ -1,0 +1,110 @@
+#include <diffreg/core/staged_outputs.h>
+
+#include <diffreg/core/error.h>
+#include <diffreg/core/file.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+namespace diffreg {
+
+std::string canonicalTarget(const std::string& path) {
+  std::error_code ec;
+  const fs::path p = fs::weakly_canonical(fs::absolute(path), ec);
+  return ec ? fs::absolute(path).lexically_normal().string() : p.string();
+}
+
+StagedOutputs::~StagedOutputs() {
+  for (const Entry& e : staged_) {
+    std::remove(e.temporary.c_str());
+    unregisterTemporary(e.temporary);
+  }
+}
+
+std::string StagedOutputs::stage(const std::string& path) {
+  const fs::path p(writeTarget(path));  // a link stays a link: the file it leads to is written
+  const std::string canonical = canonicalTarget(path);
+  for (const Entry& e : staged_)
+    if (e.canonical == canonical)
+      throw InvalidParameter("output '" + path + "' is written twice (by -o, --report or a filter" +
+                             (e.target != path ? ", also as '" + e.target + "'" : "") + ")");
+  // Beside the file it replaces (the rename is atomic there), with the extension of `path` as
+  // given: the writers pick the format by it, and a link's own target may have another.
+  const std::string tmp =
+      (p.parent_path() / ("." + p.stem().string() + ".tmp" + std::to_string(::getpid()) +
+                          fs::path(path).extension().string()))
+          .string();
+  staged_.push_back({tmp, path, p.string(), canonical});
+  registerTemporary(tmp);  // an interrupted run removes it (removeTemporariesOnSignal)
+  return tmp;
+}
+
+void StagedOutputs::stageWritten(const std::string& path,
+                                 const std::function<void(const std::string&)>& write) {
+  const std::string temporary = stage(path);
+  try {
+    write(temporary);
+  } catch (const IoError& e) {      // e.g. a full disk: the message names the output, not its
+    std::string reason = e.what();  // temporary
+    const size_t at = reason.find(temporary);
+    if (at != std::string::npos) reason.replace(at, temporary.size(), path);
+    throw IoError(reason);
+  }
+}
+
+void StagedOutputs::stageText(const std::string& path, const std::string& text) {
+  stageWritten(path, [&text](const std::string& temporary) {
+    writeFileAtomically(temporary, [&text](std::ostream& out) { out << text; });
+  });
+}
+
+void StagedOutputs::commit() {
+  // Each existing target is moved aside first; if any rename fails, every target renamed so far
+  // gets its old file (or its absence) back. An interrupt waits until the set is in place.
+  const SignalsDeferred deferred;
+  std::vector<std::pair<std::string, std::string>> done;  // target, backup ("" = was absent)
+  const auto undo = [&done] {
+    for (auto it = done.rbegin(); it != done.rend(); ++it) {
+      if (it->second.empty())
+        std::remove(it->first.c_str());
+      else
+        std::rename(it->second.c_str(), it->first.c_str());
+    }
+  };
+  for (const Entry& e : staged_) {
+    std::string backup;
+    std::error_code ec;
+    const fs::file_status st = fs::symlink_status(e.file, ec);
+    if (fs::is_directory(st)) {  // became one after the checks: never moved aside
+      undo();
+      throw IoError("cannot write '" + e.target + "': it is a directory");
+    }
+    if (fs::exists(st)) {
+      backup = e.temporary + ".old";
+      if (std::rename(e.file.c_str(), backup.c_str()) != 0) {
+        const int err = errno;
+        undo();
+        throw IoError("cannot write '" + e.target + "': " + std::strerror(err));
+      }
+    }
+    if (std::rename(e.temporary.c_str(), e.file.c_str()) != 0) {
+      const int err = errno;
+      if (!backup.empty()) std::rename(backup.c_str(), e.file.c_str());
+      undo();
+      throw IoError("cannot write '" + e.target + "': " + std::strerror(err));
+    }
+    done.emplace_back(e.file, backup);
+  }
+  for (const auto& [target, backup] : done)
+    if (!backup.empty()) std::remove(backup.c_str());
+  for (const Entry& e : staged_) unregisterTemporary(e.temporary);
+  staged_.clear();
+}
+
+}  // namespace diffreg
