@@ -1042,7 +1042,8 @@ TEST_CASE("PLY quality names that cannot be written or read back say so", "[mesh
   const std::string path = tmp.file("named.ply", text);
   Mesh back;
   const std::string warned = stderrOf([&] { back = readMesh(path); });
-  CHECK(warned.find("is not printable ASCII; the vertex quality is not kept") != std::string::npos);
+  CHECK(warned.find("the vertex quality naming 'w\\xe9ight' is not printable ASCII; not kept") !=
+        std::string::npos);
   CHECK(back.vertexScalarNames().empty());
 }
 
@@ -1093,6 +1094,32 @@ TEST_CASE("PLY keeps every named property, exactly, under its own name", "[mesh]
     CHECK(surface.vertexScalar("geodesic") == Eigen::VectorXd::LinSpaced(5, 0.0, 4.0));
     CHECK_FALSE(surface.hasElementScalar(prop::smoothness));  // a tet's value, not a face's
   }
+}
+
+TEST_CASE("PLY namings: the first of each is kept, the others warned about in one line",
+          "[mesh][io][hostile]") {
+  TempDir tmp;
+  // 60,000 namings of properties the file does not have and 60,000 second namings of its
+  // quality: read in one pass over the header, one warning for all the second namings.
+  std::string header = "ply\nformat ascii 1.0\ncomment diffreg vertex quality w\n";
+  for (int i = 0; i < 60000; ++i)
+    header += "comment diffreg vertex property p" + std::to_string(i) + "\n";
+  for (int i = 0; i < 60000; ++i)
+    header += "comment diffreg vertex quality w" + std::to_string(i) + "\n";
+  const std::string path = tmp.file(
+      "many.ply", header +
+                      "element vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+                      "property double quality\nproperty double p7\nelement face 1\n"
+                      "property list uchar int vertex_indices\nend_header\n"
+                      "0 0 0 0.5 7\n1 0 0 0.25 8\n0 1 0 1 9\n3 0 1 2\n");
+  Mesh mesh;
+  const std::string err = stderrOf([&] { mesh = readMesh(path); });
+  CHECK(err == "diffreg: warning: " + path +
+                   ":60004: the vertex quality naming 'w0' names a property named before; not kept "
+                   "(nor 59999 more namings like it)\n");
+  CHECK(mesh.vertexScalar("w") == Eigen::Vector3d(0.5, 0.25, 1.0));
+  CHECK(mesh.vertexScalar("p7") == Eigen::Vector3d(7.0, 8.0, 9.0));
+  CHECK(mesh.vertexScalarNames().size() == 2u);
 }
 
 TEST_CASE("named PLY values follow polygons and split faces into the built mesh", "[mesh][io]") {

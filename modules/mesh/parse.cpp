@@ -18,8 +18,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <iterator>
+#include <map>
 #include <numeric>
 #include <optional>
+#include <set>
 
 namespace diffreg {
 namespace {
@@ -612,29 +614,36 @@ struct PlyHeader {
   /// What the header says vertex and face properties hold: (file property, mesh property),
   /// from "comment diffreg vertex|face quality NAME" and "... property NAME".
   std::vector<std::pair<std::string, std::string>> vertexNamed, faceNamed;
+  /// The file properties and mesh properties named so far, vertex [0] and face [1].
+  std::set<std::string> namedProperties[2], namedNames[2];
+  /// Namings not taken (a name not printable ASCII, a second naming): their count and the
+  /// first one's line, for one warning.
+  int skippedNamings = 0;
+  std::string firstSkipped;
 };
 
-/// Takes a header comment "diffreg vertex|face quality|property NAME" into `h`; a second one
-/// for the same file property or the same name is ignored with a warning.
+/// Takes a header comment "diffreg vertex|face quality|property NAME" into `h`. One naming a
+/// file property or a mesh property a second time, or with a name that is not printable
+/// ASCII, is counted in `h.skippedNamings` instead.
 void takeNamingComment(const std::vector<std::string_view>& t, const std::string& where,
                        PlyHeader& h) {
-  const bool quality = t[3] == "quality";
-  const std::string what = std::string(t[2]) + (quality ? " quality" : " property");
+  const bool quality = t[3] == "quality", vertex = t[2] == "vertex";
+  const std::string property = quality ? "quality" : std::string(t[4]), name(t[4]);
   // A property name is printable ASCII (as the writer and the .om reader have it).
-  if (!printableAscii(t[4])) {
-    warn(where + ": the " + what + "'s name " + visible(t[4]) + " is not printable ASCII; the " +
-         what + " is not kept");
+  const char* why = !printableAscii(t[4]) ? "is not printable ASCII"
+                    : h.namedProperties[vertex ? 0 : 1].count(property) ||
+                            h.namedNames[vertex ? 0 : 1].count(name)
+                        ? "names a property named before"
+                        : nullptr;
+  if (why) {
+    if (h.skippedNamings++ == 0)
+      h.firstSkipped = where + ": the " + std::string(t[2]) + (quality ? " quality" : " property") +
+                       " naming " + visible(t[4]) + " " + why;
     return;
   }
-  auto& named = t[2] == "vertex" ? h.vertexNamed : h.faceNamed;
-  const std::string property = quality ? "quality" : std::string(t[4]), name(t[4]);
-  for (const auto& [p, n] : named) {
-    if (p == property || n == name) {
-      warn(where + ": " + quote(name) + " is named a second time; the first naming is kept");
-      return;
-    }
-  }
-  named.emplace_back(property, name);
+  h.namedProperties[vertex ? 0 : 1].insert(property);
+  h.namedNames[vertex ? 0 : 1].insert(name);
+  (vertex ? h.vertexNamed : h.faceNamed).emplace_back(property, name);
 }
 
 PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
@@ -703,6 +712,11 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
     }
   }
   if (!haveFormat) throw InvalidMesh(source + ": the PLY header has no format line");
+  if (h.skippedNamings > 0)
+    warn(h.firstSkipped + "; not kept" +
+         (h.skippedNamings > 1
+              ? " (nor " + std::to_string(h.skippedNamings - 1) + " more namings like it)"
+              : std::string()));
   h.dataStart = std::min(pos, text.size());
   h.dataLine = line + 1;
   return h;
@@ -856,11 +870,13 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
   // The named values (diffreg's own files): the column of each scalar property named, -1 else.
   std::vector<RawMesh::Values>& columns = vertex ? raw.vertexValues : raw.faceValues;
   std::vector<int> column(e.props.size(), -1);
-  if (vertex || face) {
+  if ((vertex || face) && !named.empty()) {
+    std::map<std::string_view, int> index;  // the first property of each name
+    for (size_t i = 0; i < e.props.size(); ++i) index.emplace(e.props[i].name, static_cast<int>(i));
     for (const auto& [property, name] : named) {
-      const int i = findProperty(e, {property.c_str()});
-      if (i < 0 || e.props[i].isList()) continue;
-      column[i] = static_cast<int>(columns.size());
+      const auto it = index.find(property);
+      if (it == index.end() || e.props[it->second].isList() || column[it->second] >= 0) continue;
+      column[it->second] = static_cast<int>(columns.size());
       columns.push_back({name, property, {}});
     }
   }
