@@ -105,3 +105,43 @@ TEST_CASE("a staged write that fails names the output, not its temporary", "[cor
   }
   CHECK(temporary != out);
 }
+
+TEST_CASE("staged outputs of one process do not collide, whatever the working directory does",
+          "[core][hostile]") {
+  TempDir tmp;
+  fs::create_directories(tmp.path / "d");
+  // Two sets staging the same target (two threads of one process), and two targets that would
+  // share a temporary name (the link's destination stem with the output's extension).
+  fs::create_symlink("d/real.dat", tmp.path / "x.png");
+  StagedOutputs first, second;
+  const std::string t1 = first.stage(tmp / "same.png");
+  const std::string t2 = second.stage(tmp / "same.png");
+  const std::string t3 = first.stage(tmp / "x.png");
+  const std::string t4 = first.stage(tmp / "d/real.png");
+  CHECK(t1 != t2);
+  CHECK(t3 != t4);
+  for (const auto& t : {t1, t2, t3, t4}) CHECK(fs::path(t).is_absolute());
+  std::ofstream(t1) << "one";
+  std::ofstream(t2) << "two";
+  std::ofstream(t3) << "three";
+  std::ofstream(t4) << "four";
+  second.commit();
+  // A relative output stays where it was given, though the working directory changes before
+  // the commit.
+  const fs::path before = fs::current_path();
+  fs::current_path(tmp.path);
+  StagedOutputs relative;
+  const std::string t5 = relative.stage("rel.txt");
+  fs::current_path(tmp.path / "d");
+  std::ofstream(t5) << "rel";
+  relative.commit();
+  first.commit();
+  fs::current_path(before);
+  CHECK(read(tmp / "same.png") == "one");
+  CHECK(read(tmp / "d/real.dat") == "three");
+  CHECK(read(tmp / "d/real.png") == "four");
+  CHECK(read(tmp / "rel.txt") == "rel");
+  CHECK_FALSE(fs::exists(tmp.path / "d" / "rel.txt"));
+  CHECK(tmp.entries() == 4);  // d/, x.png, same.png, rel.txt: no temporary left
+  CHECK(std::distance(fs::directory_iterator(tmp.path / "d"), fs::directory_iterator()) == 2);
+}

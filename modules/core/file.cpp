@@ -206,27 +206,35 @@ std::string writeTarget(const std::string& path) {
   throw IoError("cannot write '" + path + "': too many levels of symbolic links");
 }
 
+std::string createTemporary(const std::string& shown, const std::string& prefix,
+                            const std::string& suffix) {
+  // O_EXCL: never an existing file or a planted link.
+  static const char alphabet[] = "abcdefghijklmnopqrstuvwxyz0123456789";
+  std::random_device rd;
+  std::mt19937 rng(rd());
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    std::string name = prefix;
+    for (int i = 0; i < 6; ++i) name += alphabet[rng() % (sizeof(alphabet) - 1)];
+    name += suffix;
+    const SignalsDeferred deferred;  // created and registered, or neither
+    const int fd = ::open(name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0 && errno != EEXIST)
+      throw IoError("cannot write '" + shown + "': " + std::strerror(errno));
+    if (fd >= 0) {
+      registerTemporary(name);
+      ::close(fd);
+      return name;
+    }
+  }
+  throw IoError("cannot write '" + shown + "': no free temporary name");
+}
+
 void writeFileAtomically(const std::string& shown, const std::function<void(std::ostream&)>& body) {
   const auto fail = [&shown](const std::string& reason) {
     return IoError("cannot write '" + shown + "': " + reason);
   };
   const std::string path = writeTarget(shown);
-  // A new name beside the target (O_EXCL: never an existing file or a planted link).
-  static const char alphabet[] = "abcdefghijklmnopqrstuvwxyz0123456789";
-  std::random_device rd;
-  std::mt19937 rng(rd());
-  std::string tmp;
-  int fd = -1;
-  for (int attempt = 0; attempt < 100 && fd < 0; ++attempt) {
-    tmp = path + ".tmp-";
-    for (int i = 0; i < 6; ++i) tmp += alphabet[rng() % (sizeof(alphabet) - 1)];
-    const SignalsDeferred deferred;  // created and registered, or neither
-    fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0 && errno != EEXIST) throw fail(std::strerror(errno));
-    if (fd >= 0) registerTemporary(tmp);
-  }
-  if (fd < 0) throw fail("no free temporary name");
-  ::close(fd);
+  const std::string tmp = createTemporary(shown, path + ".tmp-", "");
   struct Unregister {
     const std::string& path;
     ~Unregister() { unregisterTemporary(path); }
@@ -240,7 +248,7 @@ void writeFileAtomically(const std::string& shown, const std::function<void(std:
     out.close();
     if (out.fail()) throw fail("close failed");
     // The data on disk before the name points to it (else a crash can leave an empty file).
-    fd = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
+    const int fd = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
     const bool synced = fd >= 0 && ::fsync(fd) == 0;
     const int err = errno;
     if (fd >= 0) ::close(fd);

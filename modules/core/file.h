@@ -45,6 +45,12 @@ std::uint64_t checkInputFile(const std::string& path, const std::string& what, s
 ///        "cannot write 'path': the name has a NUL byte".
 std::string writeTarget(const std::string& path);
 
+/// Creates a new empty file named `prefix`, six random letters and digits, `suffix` (O_EXCL:
+/// never an existing file or a planted link) and registers it as a temporary (below).
+/// \throw IoError "cannot write 'shown': ..." when no such file can be created.
+std::string createTemporary(const std::string& shown, const std::string& prefix,
+                            const std::string& suffix);
+
 /// Writes the file `path` all or nothing: `body` writes a new temporary file beside it
 /// ("<path>.tmp-XXXXXX", in the same directory so that the rename is atomic), which is flushed,
 /// synced to disk and renamed onto `path`. Readers see the old file or the whole new one, never

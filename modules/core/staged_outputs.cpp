@@ -28,20 +28,21 @@ StagedOutputs::~StagedOutputs() {
 }
 
 std::string StagedOutputs::stage(const std::string& path) {
-  const fs::path p(writeTarget(path));  // a link stays a link: the file it leads to is written
+  // A link stays a link: the file it leads to is written. Absolute, so that a change of the
+  // working directory during the run changes nothing.
+  const fs::path p = fs::absolute(writeTarget(path));
   const std::string canonical = canonicalTarget(path);
   for (const Entry& e : staged_)
     if (e.canonical == canonical)
-      throw InvalidParameter("output '" + path + "' is written twice (by -o, --report or a filter" +
-                             (e.target != path ? ", also as '" + e.target + "'" : "") + ")");
-  // Beside the file it replaces (the rename is atomic there), with the extension of `path` as
-  // given: the writers pick the format by it, and a link's own target may have another.
+      throw InvalidParameter("output '" + path + "' is written twice" +
+                             (e.target != path ? " (also as '" + e.target + "')" : ""));
+  // A new file beside the one it replaces (the rename is atomic there), with the extension of
+  // `path` as given: the writers pick the format by it, and a link's own target may have
+  // another. Registered: an interrupted run removes it (removeTemporariesOnSignal).
   const std::string tmp =
-      (p.parent_path() / ("." + p.stem().string() + ".tmp" + std::to_string(::getpid()) +
-                          fs::path(path).extension().string()))
-          .string();
+      createTemporary(path, (p.parent_path() / ("." + p.stem().string() + ".tmp-")).string(),
+                      fs::path(path).extension().string());
   staged_.push_back({tmp, path, p.string(), canonical});
-  registerTemporary(tmp);  // an interrupted run removes it (removeTemporariesOnSignal)
   return tmp;
 }
 

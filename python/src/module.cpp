@@ -234,6 +234,7 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
                      const py::object& handles, const py::object& targets, const py::object& ranges,
                      const py::object& magnitudes, const py::object& script,
                      const py::object& progress) {
+  PyWarnings warnings;
   Document doc;
   if (isPath(meshArg)) {
     const std::string path = toPath(meshArg, "mesh");
@@ -276,6 +277,7 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
   StagedOutputs staged;
   doc.outputFile = [&staged](const std::string& path) { return staged.stage(path); };
   const nlohmann::json report = runWithProgress(pipeline, doc, progress);
+  warnings.issue();  // a warning made an error fails the run before its files appear
   staged.commit();
   py::dict out;
   out["V"] = fromMatrix(doc.mesh.positions());
@@ -394,7 +396,7 @@ void bindFiles(py::module_& m) {
 
 // run() and filters(): whole pipelines of the tool's filters and their tables.
 void bindPipeline(py::module_& m) {
-  m.def("run", &runPipeline, py::call_guard<PyWarnings>(), py::arg("mesh"),
+  m.def("run", &runPipeline, py::arg("mesh"),  // its warnings: runPipeline's own PyWarnings
         py::arg("filters") = py::list(), py::arg("handles") = py::none(),
         py::arg("targets") = py::none(), py::arg("ranges") = py::none(),
         py::arg("magnitudes") = py::none(), py::arg("script") = py::none(),

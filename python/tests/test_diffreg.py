@@ -122,6 +122,13 @@ def test_run_writes_the_filters_files_only_when_every_step_succeeds(tmp_path):
     assert not picture.exists()
     assert kept.read_bytes() == b"old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.png"]
+    # A warning the filters make an error fails the run too, before its files appear.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(diffreg.DiffregWarning, match="beta=0.3 is ignored"):
+            diffreg.run((V, E), steps[:3] + ["deform beta=0.3"], handles=handles,
+                        targets=targets, ranges=ranges, magnitudes=magnitudes)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.png"]
     diffreg.run((V, E), steps, handles=handles, targets=targets, ranges=ranges,
                 magnitudes=magnitudes)
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
