@@ -187,4 +187,11 @@ TEST_CASE("deform names the parameters it was given that have no effect", "[filt
   CHECK(warned({{"regularization", "uniform"}, {"beta", "0.3"}, {"iterations", "300"}}).empty());
   CHECK(warned({{"energy", "dirichlet"}}).empty());
   CHECK(warned({{"local_step", "reference"}, {"iterations", "300"}}).empty());
+  // MeshLab's scripts (and `diffreg filters --mlx`) spell out every parameter at its default.
+  std::map<std::string, std::string> all;
+  for (const ParamSpec& spec : Registry::builtin().get("deform").params())
+    all[spec.name] = spec.defaultValue;
+  CHECK(warned(all).empty());
+  all["energy"] = "dirichlet";
+  CHECK(warned(all).empty());
 }

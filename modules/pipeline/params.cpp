@@ -197,7 +197,8 @@ ParamMap::ParamMap(const std::string& filter, const std::vector<ParamSpec>& spec
   for (const auto& spec : specs) {
     const auto it = values.find(spec.name);
     text_[spec.name] = canonical(filter, spec, it != values.end() ? it->second : spec.defaultValue);
-    if (it != values.end()) given_.insert(spec.name);
+    if (it != values.end() && text_[spec.name] != canonical(filter, spec, spec.defaultValue))
+      given_.insert(spec.name);
   }
 }
 

@@ -58,7 +58,8 @@ class ParamMap {
   std::string getString(const std::string& name) const;  ///< Enum and String
   /// The canonical text of every value (for reports and scripts).
   const std::map<std::string, std::string>& text() const { return text_; }
-  /// Whether the caller gave `name` (rather than taking its default).
+  /// Whether the caller chose `name`: gave it a value other than its default. (MeshLab's
+  /// scripts spell out every parameter, defaults included.)
   bool given(const std::string& name) const { return given_.count(name) > 0; }
 
  private:

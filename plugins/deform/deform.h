@@ -16,7 +16,8 @@ namespace diffreg {
 /// The deformation options the deform filter's parameters say (energy, regularization, beta,
 /// local_step, acceleration, iterations, tolerance); weights and progress are the caller's.
 DeformationOptions deformationOptionsOf(const ParamMap& params);
-/// Warns (one line each) about deform parameters given that the others leave without effect
+/// Warns (one line each) about deform parameters given other than their defaults
+/// (ParamMap::given) that the others leave without effect
 /// on a mesh of `kind`: beta without regularization=uniform, acceleration with the reference
 /// local step, the iteration's parameters for an energy solved in one linear step.
 void warnInapplicable(const ParamMap& params, MeshKind kind);
