@@ -1077,8 +1077,8 @@ TEST_CASE("PLY keeps every named property, exactly, under its own name", "[mesh]
     odd.setVertexScalar("x", w);
     odd.setElementScalar("two words", d);
     const std::string err = stderrOf([&] { writeMesh(tmp / "odd.ply", odd); });
-    CHECK(err.find("vertex property 'x' is not written (PLY has a property of that name") !=
-          std::string::npos);
+    CHECK(err.find("vertex property 'x' is not written (PLY readers take a property of that "
+                   "name for something else); .om keeps it") != std::string::npos);
     CHECK(err.find("element property 'two words' is not written") != std::string::npos);
     const Mesh again = readMesh(tmp / "odd.ply");
     CHECK(again.vertexScalarNames().size() == 2u);
@@ -1096,30 +1096,38 @@ TEST_CASE("PLY keeps every named property, exactly, under its own name", "[mesh]
   }
 }
 
-TEST_CASE("PLY namings: the first of each is kept, the others warned about in one line",
+TEST_CASE("PLY namings: at most 256, the first of each, the others warned about in one line",
           "[mesh][io][hostile]") {
   TempDir tmp;
-  // 60,000 namings of properties the file does not have and 60,000 second namings of its
-  // quality: read in one pass over the header, one warning for all the second namings.
+  // 300 namings of properties (one of which the file has) and 60,000 second namings of its
+  // quality: read in one pass over the header, one warning for every naming not taken and one
+  // for those that name nothing.
   std::string header = "ply\nformat ascii 1.0\ncomment diffreg vertex quality w\n";
-  for (int i = 0; i < 60000; ++i)
+  for (int i = 0; i < 300; ++i)
     header += "comment diffreg vertex property p" + std::to_string(i) + "\n";
   for (int i = 0; i < 60000; ++i)
     header += "comment diffreg vertex quality w" + std::to_string(i) + "\n";
+  header += "comment diffreg face property vertex_indices\ncomment diffreg vertex property x\n";
   const std::string path = tmp.file(
       "many.ply", header +
                       "element vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
-                      "property double quality\nproperty double p7\nelement face 1\n"
-                      "property list uchar int vertex_indices\nend_header\n"
-                      "0 0 0 0.5 7\n1 0 0 0.25 8\n0 1 0 1 9\n3 0 1 2\n");
+                      "property double quality\nproperty double p7\nproperty double p299\n"
+                      "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                      "0 0 0 0.5 7 1\n1 0 0 0.25 8 2\n0 1 0 1 9 3\n3 0 1 2\n");
   Mesh mesh;
   const std::string err = stderrOf([&] { mesh = readMesh(path); });
+  // w and p0 ... p254 make the 256 kept.
   CHECK(err == "diffreg: warning: " + path +
-                   ":60004: the vertex quality naming 'w0' names a property named before; not kept "
-                   "(nor 59999 more namings like it)\n");
+                   ":259: the vertex property naming 'p255' is one more than the 256 kept; not "
+                   "kept (nor 60046 more namings)\n"
+                   "diffreg: warning: " +
+                   path +
+                   ": the header names 254 properties that are no scalar property of their "
+                   "element (first: the vertex property 'p0'); they are not kept\n");
   CHECK(mesh.vertexScalar("w") == Eigen::Vector3d(0.5, 0.25, 1.0));
   CHECK(mesh.vertexScalar("p7") == Eigen::Vector3d(7.0, 8.0, 9.0));
   CHECK(mesh.vertexScalarNames().size() == 2u);
+  CHECK(mesh.elementScalarNames().empty());
 }
 
 TEST_CASE("named PLY values follow polygons and split faces into the built mesh", "[mesh][io]") {
@@ -1206,7 +1214,7 @@ TEST_CASE(".om keeps property names of up to 255 printable bytes and refuses the
   // own prefixes (never written), bytes the reader skips: refused, nothing written.
   for (const std::string& name :
        {std::string(256, 'p'), std::string(300, 'p'), std::string("v:quality"), std::string("f:x"),
-        std::string("caf\xc3\xa9")}) {
+        std::string("b:c"), std::string("caf\xc3\xa9")}) {
     Mesh odd = makeRectangle(1.0, 1.0, 2, 2);
     odd.setVertexScalar(name, values);
     INFO(name.size() << " bytes");
@@ -1214,6 +1222,17 @@ TEST_CASE(".om keeps property names of up to 255 printable bytes and refuses the
   }
 
   CHECK(dir.entries() == 1);
+
+  // At most 256 properties of vertices (and of faces) are read back, with one warning.
+  Mesh many = makeRectangle(1.0, 1.0, 2, 2);
+  for (int i = 0; i < 300; ++i) many.setVertexScalar("p" + std::to_string(1000 + i), values);
+  writeMesh(dir / "many.om", many);
+  Mesh manyBack;
+  const std::string err = stderrOf([&] { manyBack = readMesh(dir / "many.om"); });
+  CHECK(err.find("and any later ones are skipped: at most 256 of each are kept") !=
+        std::string::npos);
+  CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+  CHECK(manyBack.vertexScalarNames().size() == 256u);
 }
 
 TEST_CASE("a number in a mesh file takes one sign: +-1 is no number", "[io][hostile]") {

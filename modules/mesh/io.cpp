@@ -239,6 +239,17 @@ bool oneWord(const std::string& name) {
   return printableAscii(name) && name.find(' ') == std::string::npos;
 }
 
+/// Why .om cannot keep a property of that name, nullptr when it can. Its names are one length
+/// byte and the bytes; OpenMesh does not write names of the form "c:..." (its own, such as
+/// "v:points"); diffreg's reader takes printable ASCII.
+const char* omUnkeptBecause(const std::string& name) {
+  return name.empty()                         ? "empty"
+         : name.size() > 255                  ? "longer than 255 bytes"
+         : !printableAscii(name)              ? "not printable ASCII"
+         : name.size() >= 2 && name[1] == ':' ? "OpenMesh does not write names of the form 'c:...'"
+                                              : nullptr;
+}
+
 /// A column of doubles in a PLY: the file's property and, when not empty, the mesh property
 /// it holds, which a header comment names for readMesh.
 struct PlyColumn {
@@ -432,17 +443,8 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
   };
 
   if (ext == "om") {  // .om carries every named property
-    // Its names are one length byte and the bytes, and OpenMesh keeps "v:...", "f:...", "e:..."
-    // and "h:..." for its own (they are not written); diffreg's reader takes printable ASCII.
     const auto storable = [&](const std::string& name) {
-      const char* why = name.empty()            ? "empty"
-                        : name.size() > 255     ? "longer than 255 bytes"
-                        : !printableAscii(name) ? "not printable ASCII"
-                        : name.size() >= 2 && name[1] == ':' &&
-                                std::string("vfeh").find(name[0]) != std::string::npos
-                            ? "OpenMesh's own prefix, which it does not write"
-                            : nullptr;
-      if (why)
+      if (const char* why = omUnkeptBecause(name))
         throw IoError("cannot write " + quote(path) + ": the property name " +
                       quote(name.size() > 80 ? name.substr(0, 80) + "..." : name) +
                       " cannot be kept in .om (" + why + ")");
@@ -460,24 +462,23 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
   // named property as a property of the same name; each named in the header for readMesh.
   const auto plyColumns = [&](bool vertex, std::vector<PlyColumn>& columns) {
     const std::string& quality = vertex ? options.vertexQuality : options.faceQuality;
-    if (auto v = scalar(vertex, quality)) {
+    const std::optional<Eigen::VectorXd> q = scalar(vertex, quality);
+    if (q) {
       if (!oneWord(quality))
         warn("writing " + quote(path) + ": the property " + quote(quality) +
              " goes out as quality without its name (not one word of printable ASCII), so "
              "reading the file back will not restore it");
-      columns.push_back({"quality", oneWord(quality) ? quality : "", std::move(*v)});
+      columns.push_back({"quality", oneWord(quality) ? quality : "", *q});
     }
-    static const std::set<std::string> taken = {
-        "x",     "y",    "z",     "quality",        "red",
-        "green", "blue", "alpha", "vertex_indices", "vertex_index"};
     for (const auto& name : vertex ? mesh.vertexScalarNames() : mesh.elementScalarNames()) {
-      if (name == quality && !columns.empty()) continue;
-      if (!oneWord(name) || taken.count(name)) {
+      if (q && name == quality) continue;  // written as the quality
+      const bool reserved = plyReservedName(vertex, name);
+      if (!oneWord(name) || reserved) {
         warn("writing " + quote(path) + ": the " + (vertex ? "vertex" : "element") + " property " +
              quote(name) + " is not written (" +
-             (taken.count(name) ? "PLY has a property of that name already"
-                                : "a PLY property name is one word of printable ASCII") +
-             "); .om keeps it");
+             (reserved ? "PLY readers take a property of that name for something else"
+                       : "a PLY property name is one word of printable ASCII") +
+             ")" + (!mesh.isTet() && !omUnkeptBecause(name) ? "; .om keeps it" : ""));
         continue;
       }
       columns.push_back({name, name, *scalar(vertex, name)});

@@ -272,6 +272,15 @@ class OmReader {
       warn(src_ + ": skipped a property whose name is not printable ASCII");
       return in_.skip(block, 1, where(c));
     }
+    auto& kept = c.entity == kVertex ? raw_.vertexValues : raw_.faceValues;
+    if (kept.size() >= static_cast<size_t>(kMaxNamedProperties)) {
+      if (!skippedMany_)  // said once
+        warn(src_ + ": " + (c.entity == kVertex ? "vertex" : "face") + " property '" + c.name +
+             "' and any later ones are skipped: at most " + std::to_string(kMaxNamedProperties) +
+             " of each are kept");
+      skippedMany_ = true;
+      return in_.skip(block, 1, where(c));
+    }
     std::vector<double> values(static_cast<size_t>(n));
     const char* element = c.entity == kVertex ? "vertex " : "face ";
     for (std::uint64_t i = 0; i < n; ++i) {
@@ -320,7 +329,7 @@ class OmReader {
                         " faces, the file holds " + std::to_string(raw_.faces.size()));
     }
     raw_.points = std::move(points_);
-    return buildMesh(raw_, src_);
+    return buildMesh(std::move(raw_), src_);
   }
 
   Cursor in_;
@@ -333,6 +342,7 @@ class OmReader {
   std::vector<Eigen::Vector3d> points_;
   std::vector<int> next_, toVertex_, face_, faceHalfedge_;
   RawMesh raw_;  // the named values in its vertexValues and faceValues
+  bool skippedMany_ = false;  // properties past kMaxNamedProperties were skipped
 };
 
 }  // namespace

@@ -630,10 +630,14 @@ void takeNamingComment(const std::vector<std::string_view>& t, const std::string
   const bool quality = t[3] == "quality", vertex = t[2] == "vertex";
   const std::string property = quality ? "quality" : std::string(t[4]), name(t[4]);
   // A property name is printable ASCII (as the writer and the .om reader have it).
+  const int kind = vertex ? 0 : 1;
   const char* why = !printableAscii(t[4]) ? "is not printable ASCII"
-                    : h.namedProperties[vertex ? 0 : 1].count(property) ||
-                            h.namedNames[vertex ? 0 : 1].count(name)
+                    : h.namedProperties[kind].count(property) || h.namedNames[kind].count(name)
                         ? "names a property named before"
+                    : !quality && plyReservedName(vertex, property)
+                        ? "names a property PLY readers take for something else"
+                    : h.namedNames[kind].size() >= static_cast<size_t>(kMaxNamedProperties)
+                        ? "is one more than the 256 kept"
                         : nullptr;
   if (why) {
     if (h.skippedNamings++ == 0)
@@ -714,9 +718,8 @@ PlyHeader parsePlyHeader(std::string_view text, const std::string& source) {
   if (!haveFormat) throw InvalidMesh(source + ": the PLY header has no format line");
   if (h.skippedNamings > 0)
     warn(h.firstSkipped + "; not kept" +
-         (h.skippedNamings > 1
-              ? " (nor " + std::to_string(h.skippedNamings - 1) + " more namings like it)"
-              : std::string()));
+         (h.skippedNamings > 1 ? " (nor " + std::to_string(h.skippedNamings - 1) + " more namings)"
+                               : std::string()));
   h.dataStart = std::min(pos, text.size());
   h.dataLine = line + 1;
   return h;
@@ -870,7 +873,8 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
   // The named values (diffreg's own files): the column of each scalar property named, -1 else.
   std::vector<RawMesh::Values>& columns = vertex ? raw.vertexValues : raw.faceValues;
   std::vector<int> column(e.props.size(), -1);
-  if ((vertex || face) && !named.empty()) {
+  // A second vertex (face) element's values are not named: the namings hold for the first.
+  if ((vertex || face) && !named.empty() && columns.empty()) {
     std::map<std::string_view, int> index;  // the first property of each name
     for (size_t i = 0; i < e.props.size(); ++i) index.emplace(e.props[i].name, static_cast<int>(i));
     for (const auto& [property, name] : named) {
@@ -878,6 +882,8 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
       if (it == index.end() || e.props[it->second].isList() || column[it->second] >= 0) continue;
       column[it->second] = static_cast<int>(columns.size());
       columns.push_back({name, property, {}});
+      // The count is checked against the bytes left (parsePly): no growth by doubling.
+      columns.back().values.reserve(static_cast<size_t>(e.count));
     }
   }
   const std::string where = source + ":" + std::to_string(e.line);
@@ -937,6 +943,23 @@ RawMesh parsePly(std::string_view text, const std::string& source) {
   for (const PlyElement& e : h.elements)
     readPlyElement(values, e, source, e.name == "vertex" ? h.vertexNamed : h.faceNamed, raw);
   values.finish();
+  // Namings of no scalar property of the first vertex (face) element: said once.
+  int unmatched = 0;
+  std::string first;
+  for (const bool vertex : {true, false}) {
+    const auto& columns = vertex ? raw.vertexValues : raw.faceValues;
+    for (const auto& naming : vertex ? h.vertexNamed : h.faceNamed) {
+      const bool found =
+          std::any_of(columns.begin(), columns.end(),
+                      [&naming](const RawMesh::Values& v) { return v.name == naming.second; });
+      if (!found && unmatched++ == 0)
+        first = std::string(vertex ? "vertex" : "face") + " property " + quote(naming.first);
+    }
+  }
+  if (unmatched > 0)
+    warn(source + ": the header names " + std::to_string(unmatched) +
+         " properties that are no scalar property of their element (first: the " + first +
+         "); they are not kept");
   return raw;
 }
 
@@ -1214,9 +1237,20 @@ class SplittingImporter : public OpenMesh::IO::ImporterT<TriMesh> {
     if (mesh_.n_vertices() > before) {
       duplicated += static_cast<int>(mesh_.n_vertices() - before);
       ++splitFaces;
-      // OpenMesh copies each corner of the face, in order (ImporterT::add_face).
-      for (size_t j = 0; j < mesh_.n_vertices() - before; ++j)
-        copied.push_back(indices[std::min(j, indices.size() - 1)].idx());
+      // OpenMesh copies each corner of the face, in order (ImporterT::add_face); the copy's
+      // position confirms which, else names the corner it repeats.
+      for (size_t j = 0; before + j < mesh_.n_vertices(); ++j) {
+        const auto at = mesh_.point(OpenMesh::VertexHandle(static_cast<int>(before + j)));
+        const auto same = [&](OpenMesh::VertexHandle v) {  // bit for bit: a NaN is a copy too
+          return std::memcmp(mesh_.point(v).data(), at.data(), sizeof(at)) == 0;
+        };
+        int from = -1;
+        if (j < indices.size() && same(indices[j])) from = indices[j].idx();
+        for (size_t c = 0; from < 0 && c < indices.size(); ++c)
+          if (same(indices[c])) from = indices[c].idx();
+        if (from < 0) throw std::logic_error("buildTriMesh: a vertex copy repeats no corner");
+        copied.push_back(from);
+      }
     }
     return fh;
   }
@@ -1287,15 +1321,26 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
   return buildTriMesh(raw, source, origin);
 }
 
-Mesh buildMesh(const RawMesh& raw, const std::string& source) {
+bool plyReservedName(bool vertex, const std::string& name) {
+  static const std::set<std::string> vertexNames = {
+      "x",           "y",    "z",     "nx",        "ny",        "nz",          "red",
+      "green",       "blue", "alpha", "quality",   "radius",    "flags",       "s",
+      "t",           "u",    "v",     "texture_u", "texture_v", "diffuse_red", "diffuse_green",
+      "diffuse_blue"};
+  static const std::set<std::string> faceNames = {
+      "vertex_indices", "vertex_index", "quality", "red",      "green",
+      "blue",           "alpha",        "flags",   "texcoord", "texnumber"};
+  return (vertex ? vertexNames : faceNames).count(name) > 0;
+}
+
+Mesh buildMesh(RawMesh raw, const std::string& source) {
   BuildOrigin origin;
   Mesh mesh(buildTriMesh(raw, source, origin));
-  const auto attach = [&](bool vertex, const RawMesh::Values& v) {
+  std::string dropped;  // the values whose count is not the file's (two vertex elements)
+  const auto attach = [&](bool vertex, RawMesh::Values& v) {
     const size_t fileCount = vertex ? raw.points.size() : raw.faces.size();
-    if (v.values.size() != fileCount) {  // a file with two vertex or face elements
-      warn(source + ": the " + (vertex ? "vertex" : "face") + " values of " + quote(v.name) +
-           " are not kept: the file has " + std::to_string(v.values.size()) + " of them for " +
-           std::to_string(fileCount) + (vertex ? " vertices" : " faces"));
+    if (v.values.size() != fileCount) {
+      dropped += (dropped.empty() ? "" : ", ") + quote(v.name);
       return;
     }
     const int count = vertex ? mesh.numVertices() : mesh.numElements();
@@ -1311,13 +1356,17 @@ Mesh buildMesh(const RawMesh& raw, const std::string& source) {
                                  : (origin.faceOf.empty() ? i : origin.faceOf[i]);
       values[i] = v.values[from];
     }
+    std::vector<double>().swap(v.values);  // released before the mesh takes its copy
     if (vertex)
       mesh.setVertexScalar(v.name, values);
     else
       mesh.setElementScalar(v.name, values);
   };
-  for (const auto& v : raw.vertexValues) attach(true, v);
-  for (const auto& v : raw.faceValues) attach(false, v);
+  for (auto& v : raw.vertexValues) attach(true, v);
+  for (auto& v : raw.faceValues) attach(false, v);
+  if (!dropped.empty())
+    warn(source + ": the values of " + dropped +
+         " are not kept: the file has another count of them than of its vertices or faces");
   return mesh;
 }
 

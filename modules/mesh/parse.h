@@ -48,6 +48,16 @@ struct RawMesh {
   std::vector<Values> vertexValues, faceValues;
 };
 
+/// The most named properties of vertices, and of faces, a file gives a mesh (PLY namings, .om
+/// double properties); the others are left out with a warning. Each becomes a property of the
+/// mesh, whose look-ups by name are linear.
+inline constexpr int kMaxNamedProperties = 256;
+
+/// Whether a PLY property of that name means something else to PLY readers (coordinates,
+/// normals, colours, texture coordinates, indices, MeshLab's quality, radius and flags), so
+/// that diffreg neither writes a named property under it nor reads one from it.
+bool plyReservedName(bool vertex, const std::string& name);
+
 /// OBJ's v and f lines. The other OBJ statements (vt, vn, g, usemtl, free-form geometry, ...)
 /// are read past; lines that start with no OBJ statement are ignored with a warning that
 /// counts them and names the first.
@@ -93,7 +103,7 @@ std::unique_ptr<TriMesh> buildTriMesh(const RawMesh& raw, const std::string& sou
 
 /// The mesh of `raw` (buildTriMesh) with the file's named values (RawMesh::Values) as its
 /// vertex and element scalars: a vertex copy takes the value of the vertex it copies, each
-/// triangle of a polygon the polygon's.
-Mesh buildMesh(const RawMesh& raw, const std::string& source);
+/// triangle of a polygon the polygon's. The values are released from `raw` as they are taken.
+Mesh buildMesh(RawMesh raw, const std::string& source);
 
 }  // namespace diffreg

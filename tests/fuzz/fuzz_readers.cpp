@@ -46,8 +46,8 @@ Registry mlxRegistry() {
   return r;
 }
 
-void checkTriangles(const RawMesh& raw) {
-  Mesh mesh(buildTriMesh(raw, "fuzz"));
+void checkTriangles(RawMesh raw) {
+  const Mesh mesh = buildMesh(std::move(raw), "fuzz");  // with any named values
   validateMesh(mesh, "fuzz");
 }
 
