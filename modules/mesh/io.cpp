@@ -30,7 +30,6 @@
 #include <iomanip>
 #include <memory>
 #include <optional>
-#include <set>
 #include <sstream>
 #include <string_view>
 
