@@ -195,6 +195,7 @@ class PyDeformationSession {
     std::map<std::string, std::string> values{{"regularization", mode}};
     if (!beta.is_none()) values["beta"] = formatNumber(beta.cast<double>());
     const ParamMap params = paramsOf("deform", values);
+    warnInapplicable(params, shape_->mesh.kind());  // a beta the mode does not use
     Eigen::VectorXd w;
     if (!weights.is_none()) w = toVector(weights, "weights", shape_->mesh.numVertices());
     session_->setRegularization(parseEnum<Regularization>(params.getString("regularization")),
@@ -264,12 +265,13 @@ class PyDeformationSession {
     return finish(r);
   }
   std::pair<int, double> limits(const py::object& iterations, const py::object& tolerance) const {
-    std::map<std::string, std::string> values;
     py::dict kwargs;
     kwargs["iterations"] = iterations;
     kwargs["tolerance"] = tolerance;
-    const ParamMap params = paramsOf("deform", toParamText(kwargs));
     const DeformationOptions& o = session_->options();
+    kwargs["energy"] = toString(o.energy);  // an energy solved in one step uses neither
+    const ParamMap params = paramsOf("deform", toParamText(kwargs));
+    warnInapplicable(params, shape_->mesh.kind());
     return {iterations.is_none() ? o.maxIterations : params.getInt("iterations"),
             tolerance.is_none() ? o.relTolerance : params.getFloat("tolerance")};
   }

@@ -302,6 +302,17 @@ def test_warnings_go_through_the_warnings_module(tmp_path, capfd):
         diffreg.deform(V, E, handles, targets, beta=0.3)
     with pytest.warns(diffreg.DiffregWarning, match="acceleration=anderson is ignored"):
         diffreg.DeformationSession(V, E, local_step="reference", acceleration="anderson")
+    session = diffreg.DeformationSession(V, E, energy="dirichlet")
+    session.set_handles(handles)
+    session.set_targets(targets)
+    with pytest.warns(diffreg.DiffregWarning, match="iterations=7 is ignored: energy=dirichlet"):
+        session.solve(iterations=7)
+    with pytest.warns(diffreg.DiffregWarning, match="beta=0.3 is ignored"):
+        session.set_regularization("none", beta=0.3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        session.set_regularization("uniform", beta=0.3)
+        session.solve()
     # Nothing of it reaches stderr, and the warnings filters apply: "error" raises.
     assert "warning" not in capfd.readouterr().err
     with warnings.catch_warnings():
