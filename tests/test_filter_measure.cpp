@@ -140,14 +140,19 @@ TEST_CASE("measure rejects reference and rest meshes that do not match", "[filte
 TEST_CASE("measure refuses to flatten: a planar rest with a mesh or reference out of its plane",
           "[filter][measure]") {
   Scratch scratch;
+  const Document flat = bar();
+  // The flat bar with its z set by `z(x)`, written as `name` in the scratch directory.
+  const auto written = [&](const std::string& name, const auto& z) {
+    Eigen::MatrixXd X = flat.mesh.positions();
+    for (Eigen::Index i = 0; i < X.rows(); ++i) X(i, 2) = z(X(i, 0));
+    Mesh moved = flat.mesh;
+    moved.setPositions(X);
+    const std::string path = (scratch.dir / name).string();
+    writeMesh(path, moved);
+    return path;
+  };
   // The bar bent out of its plane: measured against the flat bar it is not undistorted.
-  Document flat = bar();
-  Eigen::MatrixXd X = flat.mesh.positions();
-  for (Eigen::Index i = 0; i < X.rows(); ++i) X(i, 2) = 0.5 * std::sin(X(i, 0));
-  Mesh bent = flat.mesh;
-  bent.setPositions(X);
-  const std::string bump = (scratch.dir / "bump.obj").string();
-  writeMesh(bump, bent);
+  const std::string bump = written("bump.obj", [](double x) { return 0.5 * std::sin(x); });
   {
     Document input = Document::load(bump);
     Pipeline p;
@@ -164,12 +169,7 @@ TEST_CASE("measure refuses to flatten: a planar rest with a mesh or reference ou
                       Catch::Contains("leaves its plane") && Catch::Contains("bump.obj"));
   }
   // A plane moved along z stays measurable: only the spread matters.
-  Mesh lifted = flat.mesh;
-  Eigen::MatrixXd L = lifted.positions();
-  L.col(2).array() += 3.0;
-  lifted.setPositions(L);
-  const std::string up = (scratch.dir / "lifted.obj").string();
-  writeMesh(up, lifted);
+  const std::string up = written("lifted.obj", [](double) { return 3.0; });
   Document input = Document::load(up);
   Pipeline p;
   p.add("measure", {{"rest", shipped("bar.obj")}});

@@ -1132,17 +1132,22 @@ TEST_CASE("PLY namings: at most 256, the first of each, the others warned about 
 
 TEST_CASE("named PLY values follow polygons and split faces into the built mesh", "[mesh][io]") {
   TempDir tmp;
-  const std::string header =
-      "ply\nformat ascii 1.0\ncomment diffreg vertex quality diffreg:weight\n"
-      "comment diffreg face property area\n";
+  // Five vertices with a named quality and `faces` faces with a named property "area".
+  const auto file = [&tmp](const std::string& name, int faces, const std::string& body) {
+    return tmp.file(name,
+                    "ply\nformat ascii 1.0\ncomment diffreg vertex quality diffreg:weight\n"
+                    "comment diffreg face property area\nelement vertex 5\n"
+                    "property double x\nproperty double y\nproperty double z\n"
+                    "property double quality\nelement face " +
+                        std::to_string(faces) +
+                        "\nproperty list uchar int vertex_indices\n"
+                        "property double area\nend_header\n" +
+                        body);
+  };
   SECTION("each triangle of a polygon takes the polygon's value") {
-    const std::string path = tmp.file(
-        "quad.ply", header +
-                        "element vertex 5\nproperty double x\nproperty double y\n"
-                        "property double z\nproperty double quality\nelement face 2\n"
-                        "property list uchar int vertex_indices\nproperty double area\n"
-                        "end_header\n0 0 0 0.5\n1 0 0 1.5\n1 1 0 2.5\n0 1 0 3.5\n2 0 0 4.5\n"
-                        "4 0 1 2 3 7\n3 1 4 2 9\n");
+    const std::string path = file("quad.ply", 2,
+                                  "0 0 0 0.5\n1 0 0 1.5\n1 1 0 2.5\n0 1 0 3.5\n2 0 0 4.5\n"
+                                  "4 0 1 2 3 7\n3 1 4 2 9\n");
     Mesh mesh;
     const std::string err = stderrOf([&] { mesh = readMesh(path); });
     CHECK(err.find("triangulated 1 polygonal faces into 2 triangles") != std::string::npos);
@@ -1154,13 +1159,9 @@ TEST_CASE("named PLY values follow polygons and split faces into the built mesh"
   }
   SECTION("a vertex copied for a split face takes the value of the vertex it copies") {
     // Three triangles on the edge 0-1: the third is split off with copies of 0, 1 and 4.
-    const std::string path =
-        tmp.file("fin.ply", header +
-                                "element vertex 5\nproperty double x\nproperty double y\n"
-                                "property double z\nproperty double quality\nelement face 3\n"
-                                "property list uchar int vertex_indices\nproperty double area\n"
-                                "end_header\n0 0 0 10\n1 0 0 11\n0 1 0 12\n0 -1 0 13\n0 0 1 14\n"
-                                "3 0 1 2 1\n3 1 0 3 2\n3 0 1 4 3\n");
+    const std::string path = file("fin.ply", 3,
+                                  "0 0 0 10\n1 0 0 11\n0 1 0 12\n0 -1 0 13\n0 0 1 14\n"
+                                  "3 0 1 2 1\n3 1 0 3 2\n3 0 1 4 3\n");
     Mesh mesh;
     const std::string err = stderrOf([&] { mesh = readMesh(path); });
     CHECK(err.find("split off") != std::string::npos);

@@ -290,8 +290,7 @@ class OmReader {
                           " (0-based) is not finite");
       }
     }
-    (c.entity == kVertex ? raw_.vertexValues : raw_.faceValues)
-        .push_back({c.name, "", std::move(values)});
+    kept.push_back({c.name, std::move(values)});
   }
 
   // The faces of a version 2 file: the half-edge loop of each, every half-edge in one face.

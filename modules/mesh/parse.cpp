@@ -631,13 +631,15 @@ void takeNamingComment(const std::vector<std::string_view>& t, const std::string
   const std::string property = quality ? "quality" : std::string(t[4]), name(t[4]);
   // A property name is printable ASCII (as the writer and the .om reader have it).
   const int kind = vertex ? 0 : 1;
+  static const std::string tooMany =
+      "is one more than the " + std::to_string(kMaxNamedProperties) + " kept";
   const char* why = !printableAscii(t[4]) ? "is not printable ASCII"
                     : h.namedProperties[kind].count(property) || h.namedNames[kind].count(name)
                         ? "names a property named before"
                     : !quality && plyReservedName(vertex, property)
                         ? "names a property PLY readers take for something else"
                     : h.namedNames[kind].size() >= static_cast<size_t>(kMaxNamedProperties)
-                        ? "is one more than the 256 kept"
+                        ? tooMany.c_str()
                         : nullptr;
   if (why) {
     if (h.skippedNamings++ == 0)
@@ -645,8 +647,8 @@ void takeNamingComment(const std::vector<std::string_view>& t, const std::string
                        " naming " + visible(t[4]) + " " + why;
     return;
   }
-  h.namedProperties[vertex ? 0 : 1].insert(property);
-  h.namedNames[vertex ? 0 : 1].insert(name);
+  h.namedProperties[kind].insert(property);
+  h.namedNames[kind].insert(name);
   (vertex ? h.vertexNamed : h.faceNamed).emplace_back(property, name);
 }
 
@@ -881,7 +883,7 @@ void readPlyElement(PlyValues& in, const PlyElement& e, const std::string& sourc
       const auto it = index.find(property);
       if (it == index.end() || e.props[it->second].isList() || column[it->second] >= 0) continue;
       column[it->second] = static_cast<int>(columns.size());
-      columns.push_back({name, property, {}});
+      columns.push_back({name, {}});
       // The count is checked against the bytes left (parsePly): no growth by doubling.
       columns.back().values.reserve(static_cast<size_t>(e.count));
     }
@@ -1336,6 +1338,12 @@ bool plyReservedName(bool vertex, const std::string& name) {
 Mesh buildMesh(RawMesh raw, const std::string& source) {
   BuildOrigin origin;
   Mesh mesh(buildTriMesh(raw, source, origin));
+  const bool traced =
+      raw.points.size() + origin.copied.size() == static_cast<size_t>(mesh.numVertices()) &&
+      (origin.faceOf.empty() ? raw.faces.size() : origin.faceOf.size()) ==
+          static_cast<size_t>(mesh.numElements());
+  if (!traced && (!raw.vertexValues.empty() || !raw.faceValues.empty()))
+    throw std::logic_error("buildMesh: the origin of the built mesh is not known");
   std::string dropped;  // the values whose count is not the file's (two vertex elements)
   const auto attach = [&](bool vertex, RawMesh::Values& v) {
     const size_t fileCount = vertex ? raw.points.size() : raw.faces.size();
@@ -1344,10 +1352,6 @@ Mesh buildMesh(RawMesh raw, const std::string& source) {
       return;
     }
     const int count = vertex ? mesh.numVertices() : mesh.numElements();
-    const size_t traced = vertex ? fileCount + origin.copied.size()
-                                 : (origin.faceOf.empty() ? fileCount : origin.faceOf.size());
-    if (traced != static_cast<size_t>(count))
-      throw std::logic_error("buildMesh: the origin of the built mesh is not known");
     Eigen::VectorXd values(count);
     for (int i = 0; i < count; ++i) {
       const size_t from = vertex ? (static_cast<size_t>(i) < fileCount

@@ -41,8 +41,7 @@ struct RawMesh {
   /// Named values the file carries, one per vertex (face) of the file: a PLY written by
   /// diffreg (its header names what the properties hold), an .om file's double properties.
   struct Values {
-    std::string name;      ///< the mesh property they are ("diffreg:weight")
-    std::string property;  ///< PLY: the file's property that holds them ("quality")
+    std::string name;  ///< the mesh property they are ("diffreg:weight")
     std::vector<double> values;
   };
   std::vector<Values> vertexValues, faceValues;
