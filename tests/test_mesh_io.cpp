@@ -1227,13 +1227,28 @@ TEST_CASE(".om keeps property names of up to 255 printable bytes and refuses the
   // At most 256 properties of vertices (and of faces) are read back, with one warning.
   Mesh many = makeRectangle(1.0, 1.0, 2, 2);
   for (int i = 0; i < 300; ++i) many.setVertexScalar("p" + std::to_string(1000 + i), values);
-  writeMesh(dir / "many.om", many);
+  const std::string said = stderrOf([&] { writeMesh(dir / "many.om", many); });
+  CHECK(said == "diffreg: warning: writing '" + (dir / "many.om") +
+                    "': 300 named vertex properties go out, but reading the file back keeps "
+                    "only the first 256\n");
   Mesh manyBack;
   const std::string err = stderrOf([&] { manyBack = readMesh(dir / "many.om"); });
   CHECK(err.find("and any later ones are skipped: at most 256 of each are kept") !=
         std::string::npos);
   CHECK(std::count(err.begin(), err.end(), '\n') == 1);
   CHECK(manyBack.vertexScalarNames().size() == 256u);
+  // PLY likewise; its quality is one of the named.
+  many.setVertexScalar("diffreg:weight", values);
+  const std::string plySaid = stderrOf([&] { writeMesh(dir / "many.ply", many); });
+  CHECK(plySaid == "diffreg: warning: writing '" + (dir / "many.ply") +
+                       "': 301 named vertex properties go out, but reading the file back keeps "
+                       "only the first 256\n");
+  // At the bound: nothing said.
+  Mesh bound = makeRectangle(1.0, 1.0, 2, 2);
+  for (int i = 0; i < 256; ++i)
+    bound.setElementScalar("f" + std::to_string(i), Eigen::VectorXd::Zero(bound.numElements()));
+  CHECK(stderrOf([&] { writeMesh(dir / "bound.ply", bound); }).empty());
+  CHECK(stderrOf([&] { writeMesh(dir / "bound.om", bound); }).empty());
 }
 
 TEST_CASE("a number in a mesh file takes one sign: +-1 is no number", "[io][hostile]") {

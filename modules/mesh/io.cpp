@@ -441,6 +441,13 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
     return v;
   };
 
+  // A reader keeps the first kMaxNamedProperties of each kind: say so where more go out.
+  const auto warnBeyondKept = [&](bool vertex, size_t written) {
+    if (written > static_cast<size_t>(kMaxNamedProperties))
+      warn("writing " + quote(path) + ": " + std::to_string(written) + " named " +
+           (vertex ? "vertex" : "face") + " properties go out, but reading the file back " +
+           "keeps only the first " + std::to_string(kMaxNamedProperties));
+  };
   if (ext == "om") {  // .om carries every named property
     const auto storable = [&](const std::string& name) {
       if (const char* why = omUnkeptBecause(name))
@@ -456,6 +463,8 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
       storable(name);
       scalar(false, name);
     }
+    warnBeyondKept(true, mesh.vertexScalarNames().size());
+    warnBeyondKept(false, mesh.elementScalarNames().size());
   }
   // PLY: the chosen vertex and face properties as "quality" (which MeshLab shows), every other
   // named property as a property of the same name; each named in the header for readMesh.
@@ -482,6 +491,11 @@ void writeMesh(const std::string& path, const Mesh& mesh, const WriteOptions& op
       }
       columns.push_back({name, name, *scalar(vertex, name)});
     }
+    // A tet's element properties go out unnamed (below): read back as nothing.
+    if (vertex || !mesh.isTet())
+      warnBeyondKept(vertex, static_cast<size_t>(std::count_if(
+                                 columns.begin(), columns.end(),
+                                 [](const PlyColumn& c) { return !c.name.empty(); })));
   };
   writeFileAtomically(path, [&](std::ostream& out) {
     if (ext == "mesh") {
