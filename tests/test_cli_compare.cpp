@@ -74,6 +74,22 @@ TEST_CASE(
   CHECK(r.err.find("deform: not converged after 2 iterations") != std::string::npos);
 }
 
+TEST_CASE("diffreg compare: what the deform parameters earn is said once, not per variant",
+          "[cli][compare]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s("cli-compare-once");
+  const ToolRun r =
+      s.run("compare -i '" + shipped("bar.obj") + "' --handles '" + shipped("bar-bend.json") +
+            "' --deform 'deform energy=dirichlet iterations=20'");
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const std::string said = "deform: iterations=20 is ignored";
+  const size_t first = r.err.find(said);
+  CHECK(first != std::string::npos);
+  CHECK(r.err.find(said, first + 1) == std::string::npos);
+  CHECK(r.err.find("compare: nonuniform") != std::string::npos);  // all three ran
+}
+
 TEST_CASE("diffreg compare --rbf clamps the summed RBF weights unless clamp is given",
           "[cli][compare]") {
   if (!fs::exists(DIFFREG_TOOL)) return;

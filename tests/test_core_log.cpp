@@ -53,6 +53,32 @@ TEST_CASE("a warning collector takes its thread's warnings, in order, instead of
   CHECK(stderrOf([] { warn("after"); }) == "diffreg: warning: after\n");
 }
 
+TEST_CASE("repeated warnings are dropped while the scope lives, on its thread only",
+          "[core][log]") {
+  std::vector<std::string> collected;
+  const std::string err = stderrOf([&] {
+    warn("before");
+    {
+      const diffreg::RepeatedWarningsDropped once;
+      warn("before");  // not given in the scope yet
+      warn("a");
+      warn("b");
+      warn("a");
+      std::thread other([] { warn("a"); });  // another thread's warnings are its own
+      other.join();
+      WarningCollector collector;  // what a collector takes is dropped alike
+      warn("b");
+      warn("c");
+      collected = collector.take();
+    }
+    warn("a");  // the scope is gone
+  });
+  CHECK(err ==
+        "diffreg: warning: before\ndiffreg: warning: before\ndiffreg: warning: a\n"
+        "diffreg: warning: b\ndiffreg: warning: a\ndiffreg: warning: a\n");
+  CHECK(collected == std::vector<std::string>{"c"});
+}
+
 TEST_CASE("a warning collector leaves other threads' warnings on stderr", "[core][log]") {
   std::vector<std::string> mine;
   const std::string err = stderrOf([&] {

@@ -8,9 +8,11 @@ namespace diffreg {
 namespace {
 std::atomic<bool> g_quiet{false};
 thread_local WarningCollector* t_collector = nullptr;
+thread_local RepeatedWarningsDropped* t_dropRepeats = nullptr;
 }  // namespace
 
 void warn(const std::string& message) {
+  if (t_dropRepeats && !t_dropRepeats->given_.insert(message).second) return;
   if (t_collector)
     t_collector->messages_.push_back(message);
   else if (!g_quiet)
@@ -19,6 +21,9 @@ void warn(const std::string& message) {
 
 WarningCollector::WarningCollector() : outer_(t_collector) { t_collector = this; }
 WarningCollector::~WarningCollector() { t_collector = outer_; }
+
+RepeatedWarningsDropped::RepeatedWarningsDropped() : outer_(t_dropRepeats) { t_dropRepeats = this; }
+RepeatedWarningsDropped::~RepeatedWarningsDropped() { t_dropRepeats = outer_; }
 
 std::vector<std::string> WarningCollector::take() {
   std::vector<std::string> out;

@@ -1,6 +1,7 @@
 // Warnings and progress go to stderr through one switch so that --quiet silences them.
 #pragma once
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,21 @@ class WarningCollector {
   friend void warn(const std::string& message);
   std::vector<std::string> messages_;
   WarningCollector* outer_;
+};
+
+/// While alive, a warning already given on the thread that made it since it was made is not
+/// given again: a run of several variants of one step (compare's columns) says each thing once.
+class RepeatedWarningsDropped {
+ public:
+  RepeatedWarningsDropped();
+  ~RepeatedWarningsDropped();
+  RepeatedWarningsDropped(const RepeatedWarningsDropped&) = delete;
+  RepeatedWarningsDropped& operator=(const RepeatedWarningsDropped&) = delete;
+
+ private:
+  friend void warn(const std::string& message);
+  std::set<std::string> given_;
+  RepeatedWarningsDropped* outer_;
 };
 
 /// Prints "diffreg: <message>" on stderr unless quiet mode is on.
