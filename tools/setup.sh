@@ -8,18 +8,24 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$here"
 what="${1:-demo}"
+case "$what" in
+  demo | test | build) ;;
+  *) echo "setup: unknown sub-command '$what' (use demo, test or build)" >&2; exit 2 ;;
+esac
 
 packages=(build-essential cmake pkg-config libopenmesh-dev libeigen3-dev libcgal-dev catch2
           libboost-program-options-dev libsuitesparse-dev libopenblas0-pthread libopenblas-pthread-dev nlohmann-json3-dev
           libpng-dev libpugixml-dev libtbb-dev tetgen doxygen libcpp-httplib-dev libjs-three
-          chromium nodejs clang libclang-rt-14-dev python3-dev pybind11-dev python3-numpy
-          python3-pytest python3-matplotlib libcairo2-dev fonts-dejavu-core)
+          python3-dev pybind11-dev python3-numpy python3-matplotlib libcairo2-dev fonts-dejavu-core)
+# Only the tests need these: the browser test of diffreg serve, the fuzzers (clang's libFuzzer)
+# and the Python tests.
+[ "$what" = test ] && packages+=(chromium nodejs clang libclang-rt-14-dev python3-pytest)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 # npm for the browser test (web/test); some Node.js builds bring their own.
-command -v npm >/dev/null 2>&1 || missing+=(npm)
+[ "$what" = test ] && { command -v npm >/dev/null 2>&1 || missing+=(npm); }
 if [ "${#missing[@]}" -gt 0 ]; then
   echo "setup: installing ${missing[*]}" >&2
   sudo_cmd=""
@@ -44,5 +50,4 @@ case "$what" in
         echo "setup: npm ci in web/test failed; the browser test will be skipped" >&2
     fi
     cd "$build" && ctest --output-on-failure -j "$jobs" ;;
-  *) echo "setup: unknown sub-command '$what' (use demo, test or build)" >&2; exit 2 ;;
 esac
