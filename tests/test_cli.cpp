@@ -187,6 +187,17 @@ TEST_CASE("diffreg: usage errors exit with 2, other errors with 1") {
   CHECK(ws.run("-i in.off --nonsense -o out.ply").code == 2);
   CHECK(ws.run("-i in.off").code == 2);
   CHECK(ws.run("frobnicate").code == 2);
+  // A mistyped command is told every command; the filters command takes no name.
+  const auto typo = ws.run("compar -i in.off");
+  CHECK(typo.code == 2);
+  REQUIRE(typo.errLines.size() == 1);
+  CHECK(typo.errLines[0] ==
+        "diffreg: error: unexpected argument 'compar' (commands: filters, compare, serve, "
+        "resolution; see diffreg --help)");
+  const auto named = ws.run("filters deform");
+  CHECK(named.code == 2);
+  REQUIRE(named.errLines.size() == 1);
+  CHECK(named.errLines[0].find("'deform': the filters command") != std::string::npos);
   CHECK(ws.run("-i missing.off -o out.ply").code == 1);
   CHECK(ws.run("-i in.off -f 'diffuse_weights t=abc' -o out.ply").code == 1);
   // Found before the mesh is read: a missing input is not what is reported.

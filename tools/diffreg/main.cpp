@@ -235,11 +235,12 @@ int run(int argc, char** argv) {
   }
   if (vm.count("command")) {
     const auto commands = vm["command"].as<std::vector<std::string>>();
-    if (commands.size() != 1 || commands[0] != "filters") {
-      throw UsageError("unexpected argument '" +
-                       (commands[0] == "filters" ? commands[1] : commands[0]) +
-                       "' (commands: filters; see diffreg --help)");
-    }
+    if (commands[0] != "filters")
+      throw UsageError("unexpected argument '" + commands[0] +
+                       "' (commands: filters, compare, serve, resolution; see diffreg --help)");
+    if (commands.size() != 1)
+      throw UsageError("unexpected argument '" + commands[1] +
+                       "': the filters command lists every filter and takes no name");
     std::cout << (vm["mlx"].as<bool>() ? defaultFilterScript(registry) : describeFilters(registry));
     return 0;
   }
