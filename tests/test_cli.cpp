@@ -133,6 +133,8 @@ TEST_CASE("diffreg writes a PLY with quality and colours, and a report") {
   INFO((again.errLines.empty() ? "" : again.errLines[0]));
   REQUIRE(again.code == 0);
   CHECK(fs::exists(ws.dir() / "w.png"));
+  // The closing line names every file written, the filters' too.
+  CHECK(again.errLines.back() == "diffreg: wrote w.png, again.ply");
   const std::string back = slurp(ws.dir() / "again.ply");
   CHECK(back.substr(back.find("end_header")) == ply.substr(ply.find("end_header")));
 }

@@ -65,7 +65,7 @@ void StagedOutputs::stageText(const std::string& path, const std::string& text) 
   });
 }
 
-void StagedOutputs::commit() {
+std::vector<std::string> StagedOutputs::commit() {
   // Each existing target is moved aside first; if any rename fails, every target renamed so far
   // gets its old file (or its absence) back. An interrupt waits until the set is in place.
   const SignalsDeferred deferred;
@@ -104,8 +104,13 @@ void StagedOutputs::commit() {
   }
   for (const auto& [target, backup] : done)
     if (!backup.empty()) std::remove(backup.c_str());
-  for (const Entry& e : staged_) unregisterTemporary(e.temporary);
+  std::vector<std::string> written;
+  for (const Entry& e : staged_) {
+    unregisterTemporary(e.temporary);
+    written.push_back(e.target);
+  }
   staged_.clear();
+  return written;
 }
 
 }  // namespace diffreg

@@ -33,8 +33,9 @@ class StagedOutputs {
   void stageText(const std::string& path, const std::string& text);
   /// Renames every temporary onto its target; when a rename fails, the targets renamed so far
   /// get back what they held (or are removed when they did not exist).
+  /// \return the targets written, as given, in the order they were staged.
   /// \throw IoError when a rename fails.
-  void commit();
+  std::vector<std::string> commit();
 
  private:
   struct Entry {

@@ -157,8 +157,8 @@ void ProgressPrinter::operator()(const std::string& filter, int iteration, doubl
   info(line.str());
 }
 
-std::vector<std::string> checkTableOutputs(const boost::program_options::variables_map& vm,
-                                           const std::string& command) {
+void checkTableOutputs(const boost::program_options::variables_map& vm,
+                       const std::string& command) {
   std::vector<std::string> outputs;
   for (const char* key : {"output", "report", "markdown"})
     if (vm.count(key)) {
@@ -171,11 +171,9 @@ std::vector<std::string> checkTableOutputs(const boost::program_options::variabl
           path, key == std::string("output") ? kPictureExtensions : std::vector<std::string>{});
       if (key == std::string("output")) requireTextRendering();  // before the work, not after
     }
-  return outputs;
 }
 
-void writeTableOutputs(const boost::program_options::variables_map& vm,
-                       const std::vector<std::string>& outputs, const std::string& table,
+void writeTableOutputs(const boost::program_options::variables_map& vm, const std::string& table,
                        const std::function<void(const std::string&)>& drawPicture,
                        const std::function<nlohmann::json()>& makeReport) {
   StagedOutputs staged;
@@ -183,9 +181,9 @@ void writeTableOutputs(const boost::program_options::variables_map& vm,
   if (vm.count("report"))
     staged.stageText(vm["report"].as<std::string>(), reportText(makeReport()));
   if (vm.count("markdown")) staged.stageText(vm["markdown"].as<std::string>(), table);
-  staged.commit();
+  const std::vector<std::string> written = staged.commit();
   std::cout << table;
-  if (!outputs.empty()) info("wrote " + join(outputs, ", "));
+  if (!written.empty()) info("wrote " + join(written, ", "));
 }
 
 }  // namespace diffreg

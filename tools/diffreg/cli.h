@@ -91,15 +91,13 @@ class ProgressPrinter {
 /// The outputs of a table command (compare, resolution) in `vm`: -o (a picture), --report and
 /// --markdown, each checked by checkOutputTarget before any work starts.
 /// \throw UsageError "COMMAND: output 'PATH' given twice" for two spellings of one file.
-std::vector<std::string> checkTableOutputs(const boost::program_options::variables_map& vm,
-                                           const std::string& command);
+void checkTableOutputs(const boost::program_options::variables_map& vm, const std::string& command);
 
 /// Writes a table command's outputs all or nothing: the picture by `drawPicture` (given the
 /// temporary path) with -o, the report `makeReport` builds with --report, `table` with
-/// --markdown. Then prints `table` on stdout and names the files written (`outputs`, from
-/// checkTableOutputs). The picture and report are only made when asked for.
-void writeTableOutputs(const boost::program_options::variables_map& vm,
-                       const std::vector<std::string>& outputs, const std::string& table,
+/// --markdown. Then prints `table` on stdout and names the files written.
+/// The picture and report are only made when asked for.
+void writeTableOutputs(const boost::program_options::variables_map& vm, const std::string& table,
                        const std::function<void(const std::string&)>& drawPicture,
                        const std::function<nlohmann::json()>& makeReport);
 

@@ -202,7 +202,6 @@ struct CompareSettings {
   Step weights, deform;
   std::optional<Step> rbf;     ///< --rbf: a fourth column
   std::optional<double> beta;  ///< --beta; else the peak of the weights
-  std::vector<std::string> outputs;
 };
 
 /// \throw UsageError for a missing option, a filter that does not fit its option or an output
@@ -233,7 +232,7 @@ CompareSettings compareSettings(const po::variables_map& vm) {
     // reaches it, and deform refuses weights above 1: clamped unless the caller says.
     if (s.rbf->filter == "rbf_weights") s.rbf->values.emplace("clamp", "true");
   }
-  s.outputs = checkTableOutputs(vm, "compare");
+  checkTableOutputs(vm, "compare");
   return s;
 }
 
@@ -328,7 +327,7 @@ int runCompare(int argc, char** argv) {
   runVariants(variants, doc, s.deform);
 
   writeTableOutputs(
-      vm, s.outputs, markdownTable(variants),
+      vm, markdownTable(variants),
       [&](const std::string& path) {
         writePng(path, comparePicture(doc, weighted, s.weights, variants, s.width, s.height, s.up));
       },

@@ -168,8 +168,7 @@ int runPipeline(const po::variables_map& vm) {
                        {"write", phase.seconds()},
                        {"total", total.seconds()}};
   if (!reportPath.empty()) staged.stageText(reportPath, reportText(report));
-  staged.commit();
-  info("wrote " + join(outputs, ", ") + (reportPath.empty() ? "" : " and " + reportPath));
+  info("wrote " + join(staged.commit(), ", "));  // the filters' files too
   return 0;
 }
 

@@ -142,7 +142,6 @@ struct ResolutionSettings {
   int width = 520, height = 0;  ///< height 0: as high as the shape needs
   int up = -1;                  ///< --up: 0, 1, 2, or -1 for auto
   std::optional<int> probe;     ///< --probe, checked against the mesh once it is read
-  std::vector<std::string> outputs;
 };
 
 /// The options --help lists, in its order.
@@ -191,7 +190,7 @@ ResolutionSettings resolutionSettings(const po::variables_map& vm) {
   if (vm["size"].as<std::string>() != "auto")
     parseSize("resolution", vm["size"].as<std::string>(), s.width, s.height);
   s.up = parseUp("resolution", vm["up"].as<std::string>());
-  s.outputs = checkTableOutputs(vm, "resolution");
+  checkTableOutputs(vm, "resolution");
   if (vm.count("probe")) s.probe = vm["probe"].as<int>();
   return s;
 }
@@ -370,7 +369,7 @@ int runResolution(int argc, char** argv) {
   const double top = compareLevels(cells, free, probe, levels[0].handles);
 
   writeTableOutputs(
-      vm, s.outputs, markdownTable(cells, levels, probe),
+      vm, markdownTable(cells, levels, probe),
       [&](const std::string& path) {
         writePng(path, resolutionPicture(cells, levels, top, s.width, s.height, s.up));
       },
