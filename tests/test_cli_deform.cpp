@@ -121,6 +121,15 @@ TEST_CASE("diffreg reports a long deformation's iterations on stderr unless quie
   INFO(verbose.err);
   CHECK(verbose.err.find("diffreg: deform: iteration 1, energy ") != std::string::npos);
   CHECK(verbose.err.find(", criterion ") != std::string::npos);
+  // A surface starts from the rest shape: its first step's criterion is not measured, not 0.
+  const ToolRun surface =
+      s.run("-i '" + shipped("cylinder.obj") + "' --handles '" + shipped("cylinder-twist.json") +
+            "' --filter 'deform iterations=1' -o one.ply --progress-after 0");
+  REQUIRE(surface.code == 0);
+  CHECK(surface.err.find("deform: iteration 1, energy ") != std::string::npos);
+  CHECK(surface.err.find(", criterion not measured yet\n") != std::string::npos);
+  CHECK(surface.err.find("not converged after 1 iteration: the first global step") !=
+        std::string::npos);
   const ToolRun quiet = s.run(run + " --progress-after 0 -q");
   REQUIRE(quiet.code == 0);
   CHECK(quiet.err.empty());

@@ -84,6 +84,38 @@ TEST_CASE("handles at their rest positions give the rest shape and zero energy",
   }
 }
 
+TEST_CASE("a first global step from the rest shape reports its criterion as not measured",
+          "[deformation][session]") {
+  for (MeshKind kind : kAllKinds)
+    for (LocalStep step : {LocalStep::Exact, LocalStep::Reference}) {
+      INFO(toString(kind) << " " << toString(step));
+      const auto disc = makeBar(kind);
+      const std::vector<int> handles = bothEnds(*disc);
+      DeformationOptions o;
+      o.localStep = step;
+      o.regularization = Regularization::Uniform;
+      o.beta = 0.3;
+      DeformationSession s(*disc, o);
+      s.setHandles(handles);
+      s.setTargets(bentTargets(*disc, handles, 0.6));
+      std::vector<double> reported;
+      s.setProgress([&reported](int, double, double criterion) { reported.push_back(criterion); });
+      const DeformationResult one = s.solve(1, 1e-7);
+      REQUIRE(reported.size() == 1u);
+      CHECK_FALSE(one.converged);
+      // From the rest shape nothing precedes the first step; from ASAP's guess it is measured.
+      const bool fromRest = one.initialGuess == "rest";
+      CHECK(std::isnan(one.criterion) == fromRest);
+      CHECK(std::isnan(reported[0]) == fromRest);
+      reported.clear();
+      const DeformationResult two = s.solve(2, 1e-7);
+      REQUIRE(reported.size() == 2u);
+      CHECK(std::isnan(reported[0]) == fromRest);
+      CHECK(reported[1] > 0.0);
+      CHECK(two.criterion == reported[1]);
+    }
+}
+
 TEST_CASE("all handles moved by one rigid motion give that motion", "[deformation][session]") {
   for (MeshKind kind : kAllKinds) {
     const auto disc = makeBar(kind);

@@ -205,6 +205,9 @@ void DeformationCore::report(const DeformationResult& result) const {
 
 double DeformationCore::start(const Eigen::MatrixXd* initial, Eigen::MatrixXd& X,
                               DeformationResult& result) {
+  // A first global step from the rest shape's or a given shape's targets has no iteration
+  // before it to compare with: its criterion is not measured (NaN), not zero.
+  result.criterion = std::numeric_limits<double>::quiet_NaN();
   // The first local step fits every target to its own element first (no previous targets).
   if (initial) {
     // The given shape's targets, then one global step: it puts the handles at their targets,

@@ -144,8 +144,9 @@ struct DeformationOptions {
   /// factorization and n (d+1) groups doubles. For an editor; a one-shot solve gains nothing.
   bool handleBasis = false;
   /// Called after every iteration with its 1-based count, the energy
-  /// (DeformationResult::energies) and the stopping criterion's value; linear energies report
-  /// one step. Exceptions propagate.
+  /// (DeformationResult::energies) and the stopping criterion's value (NaN where it is not
+  /// measured yet: a first global step from the rest shape or a given shape); linear energies
+  /// report one step. Exceptions propagate.
   std::function<void(int iteration, double energy, double criterion)> progress;
 };
 
@@ -168,7 +169,9 @@ struct DeformationResult {
   bool converged = true;  ///< the criterion fell below the tolerance within the cap
   /// The stopping criterion at the end: exact local step, the fraction of the energy one more
   /// plain iteration would remove (measured at the last iteration); reference, the relative
-  /// energy change of the last iteration; 0 for the linear energies.
+  /// energy change of the last iteration; 0 for the linear energies; NaN (null in JSON) when
+  /// the run stopped at a first global step from the rest shape or a given shape, which
+  /// nothing measured (iterations = 1).
   double criterion = 0.0;
   /// Iterations whose Anderson step was taken (the others took the plain step).
   int accelerated = 0;

@@ -12,6 +12,7 @@
 #include "deform/measure.h"
 #include "plugins.h"
 
+#include <cmath>
 #include <cstdio>
 
 namespace diffreg {
@@ -106,6 +107,12 @@ void warnNotConverged(const DeformationResult& result, const DeformationOptions&
   char gain[32];
   std::snprintf(gain, sizeof gain, "%.2g", result.criterion);
   const double tolerance = options.relTolerance;
+  if (std::isnan(result.criterion)) {
+    warn("deform: not converged after " + std::to_string(result.iterations) +
+         " iteration: the first global step, with nothing yet to measure convergence by "
+         "(raise iterations)");
+    return;
+  }
   const std::string why =
       tolerance == 0.0 ? "tolerance=0 stops only where rounding is all that is left"
       : result.criterion <= tolerance

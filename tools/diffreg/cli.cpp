@@ -152,8 +152,11 @@ void ProgressPrinter::operator()(const std::string& filter, int iteration, doubl
   if (now < after_ || (last_ >= 0.0 && now - last_ < 1.0)) return;
   last_ = now;
   std::ostringstream line;
-  line << filter << ": iteration " << iteration << ", energy " << std::setprecision(6) << energy
-       << ", criterion " << std::setprecision(2) << criterion;
+  line << filter << ": iteration " << iteration << ", energy " << std::setprecision(6) << energy;
+  if (std::isnan(criterion))
+    line << ", criterion not measured yet";
+  else
+    line << ", criterion " << std::setprecision(2) << criterion;
   info(line.str());
 }
 
