@@ -74,6 +74,25 @@ TEST_CASE(
   CHECK(r.err.find("deform: not converged after 2 iterations") != std::string::npos);
 }
 
+TEST_CASE("diffreg compare: a default uniform beta of 1 is said to leave no distortion term",
+          "[cli][compare]") {
+  if (!fs::exists(DIFFREG_TOOL)) return;
+  Scratch s("cli-compare-beta1");
+  // The U's handles have magnitude 1: the weights peak at 1.
+  const std::string run =
+      "compare -i '" + shipped("ushape.obj") + "' --handles '" + shipped("ushape-pull.json") + "'";
+  const ToolRun r = s.run(run);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("| uniform | 1.000 |") != std::string::npos);
+  CHECK(r.err.find("warning: compare: the weights peak at 1, so the uniform beta is 1, where no "
+                   "distortion term is left") != std::string::npos);
+  // A beta given is the user's: nothing said.
+  const ToolRun given = s.run(run + " --beta 1");
+  REQUIRE(given.code == 0);
+  CHECK(given.err.find("no distortion term") == std::string::npos);
+}
+
 TEST_CASE("diffreg compare: what the deform parameters earn is said once, not per variant",
           "[cli][compare]") {
   if (!fs::exists(DIFFREG_TOOL)) return;

@@ -34,7 +34,8 @@ const char* kCompareUsage =
     "Fig. 6/7 and Table 1. Prints the metrics as a Markdown table; -o draws the rest shape with\n"
     "its weights (with --rbf, the RBF weights beside them on one scale) and every result\n"
     "coloured by distortion on one shared scale. The uniform beta defaults to the peak of the\n"
-    "weights, so that both regularizations have the same peak.\n";
+    "weights, so that both regularizations have the same peak (below 1: at 1 no distortion\n"
+    "term is left; give --beta then).\n";
 
 /// One column of the comparison.
 struct Variant {
@@ -323,6 +324,10 @@ int runCompare(int argc, char** argv) {
   const Document weighted = weightedRest(doc, s.weights);
   const double peak = peakWeight(weighted, doc);
   const double beta = s.beta.value_or(std::min(peak, 1.0));
+  if (!s.beta && beta == 1.0)
+    warn("compare: the weights peak at " + formatNumber(peak) +
+         ", so the uniform beta is 1, where no distortion term is left: the uniform column "
+         "minimizes the regularizer alone (give --beta below 1 to compare with)");
   std::vector<Variant> variants = compareVariants(s, beta);
   runVariants(variants, doc, s.deform);
 
