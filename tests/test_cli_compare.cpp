@@ -107,6 +107,17 @@ TEST_CASE("diffreg compare: what the deform parameters earn is said once, not pe
   CHECK(first != std::string::npos);
   CHECK(r.err.find(said, first + 1) == std::string::npos);
   CHECK(r.err.find("compare: nonuniform") != std::string::npos);  // all three ran
+  // What each variant's run ends with is its own, said for each even where the words agree:
+  // every variant of the cylinder stops at its first global step.
+  const ToolRun capped = s.run("compare -i '" + shipped("cylinder.obj") + "' --handles '" +
+                               shipped("cylinder-twist.json") + "' --deform 'deform iterations=1'");
+  INFO(capped.err);
+  REQUIRE(capped.code == 0);
+  size_t variantsSaid = 0;
+  for (size_t at = capped.err.find("not converged after 1 iteration"); at != std::string::npos;
+       at = capped.err.find("not converged after 1 iteration", at + 1))
+    ++variantsSaid;
+  CHECK(variantsSaid == 3);
 }
 
 TEST_CASE("diffreg compare --rbf clamps the summed RBF weights unless clamp is given",

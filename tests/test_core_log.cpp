@@ -53,29 +53,33 @@ TEST_CASE("a warning collector takes its thread's warnings, in order, instead of
   CHECK(stderrOf([] { warn("after"); }) == "diffreg: warning: after\n");
 }
 
-TEST_CASE("repeated warnings are dropped while the scope lives, on its thread only",
+TEST_CASE("a parameter warning is given once while the scope lives, on its thread only",
           "[core][log]") {
+  using diffreg::warnParameter;
   std::vector<std::string> collected;
   const std::string err = stderrOf([&] {
-    warn("before");
+    warnParameter("before");
     {
-      const diffreg::RepeatedWarningsDropped once;
-      warn("before");  // not given in the scope yet
-      warn("a");
-      warn("b");
-      warn("a");
-      std::thread other([] { warn("a"); });  // another thread's warnings are its own
+      const diffreg::ParameterWarningsOnce once;
+      warnParameter("before");  // not given in the scope yet
+      warnParameter("a");
+      warnParameter("b");
+      warnParameter("a");
+      warn("result");  // plain warnings are never dropped
+      warn("result");
+      std::thread other([] { warnParameter("a"); });  // another thread's are its own
       other.join();
       WarningCollector collector;  // what a collector takes is dropped alike
-      warn("b");
-      warn("c");
+      warnParameter("b");
+      warnParameter("c");
       collected = collector.take();
     }
-    warn("a");  // the scope is gone
+    warnParameter("a");  // the scope is gone
   });
   CHECK(err ==
         "diffreg: warning: before\ndiffreg: warning: before\ndiffreg: warning: a\n"
-        "diffreg: warning: b\ndiffreg: warning: a\ndiffreg: warning: a\n");
+        "diffreg: warning: b\ndiffreg: warning: result\ndiffreg: warning: result\n"
+        "diffreg: warning: a\ndiffreg: warning: a\n");
   CHECK(collected == std::vector<std::string>{"c"});
 }
 

@@ -8,11 +8,10 @@ namespace diffreg {
 namespace {
 std::atomic<bool> g_quiet{false};
 thread_local WarningCollector* t_collector = nullptr;
-thread_local RepeatedWarningsDropped* t_dropRepeats = nullptr;
+thread_local ParameterWarningsOnce* t_parameterScope = nullptr;
 }  // namespace
 
 void warn(const std::string& message) {
-  if (t_dropRepeats && !t_dropRepeats->given_.insert(message).second) return;
   if (t_collector)
     t_collector->messages_.push_back(message);
   else if (!g_quiet)
@@ -22,8 +21,15 @@ void warn(const std::string& message) {
 WarningCollector::WarningCollector() : outer_(t_collector) { t_collector = this; }
 WarningCollector::~WarningCollector() { t_collector = outer_; }
 
-RepeatedWarningsDropped::RepeatedWarningsDropped() : outer_(t_dropRepeats) { t_dropRepeats = this; }
-RepeatedWarningsDropped::~RepeatedWarningsDropped() { t_dropRepeats = outer_; }
+void warnParameter(const std::string& message) {
+  if (t_parameterScope && !t_parameterScope->given_.insert(message).second) return;
+  warn(message);
+}
+
+ParameterWarningsOnce::ParameterWarningsOnce() : outer_(t_parameterScope) {
+  t_parameterScope = this;
+}
+ParameterWarningsOnce::~ParameterWarningsOnce() { t_parameterScope = outer_; }
 
 std::vector<std::string> WarningCollector::take() {
   std::vector<std::string> out;

@@ -29,19 +29,25 @@ class WarningCollector {
   WarningCollector* outer_;
 };
 
-/// While alive, a warning already given on the thread that made it since it was made is not
-/// given again: a run of several variants of one step (compare's columns) says each thing once.
-class RepeatedWarningsDropped {
+/// warn() for what a step's parameters earn whatever the data (a parameter that has no effect):
+/// the same step run again says it again, so inside a ParameterWarningsOnce scope it is said
+/// once. Warnings about results (a run that did not converge) go through warn().
+void warnParameter(const std::string& message);
+
+/// While alive, a warnParameter() message already given on the thread that made it since it was
+/// made is not given again: a run of several variants of one step (compare's columns) says each
+/// such thing once. warn() is never dropped.
+class ParameterWarningsOnce {
  public:
-  RepeatedWarningsDropped();
-  ~RepeatedWarningsDropped();
-  RepeatedWarningsDropped(const RepeatedWarningsDropped&) = delete;
-  RepeatedWarningsDropped& operator=(const RepeatedWarningsDropped&) = delete;
+  ParameterWarningsOnce();
+  ~ParameterWarningsOnce();
+  ParameterWarningsOnce(const ParameterWarningsOnce&) = delete;
+  ParameterWarningsOnce& operator=(const ParameterWarningsOnce&) = delete;
 
  private:
-  friend void warn(const std::string& message);
+  friend void warnParameter(const std::string& message);
   std::set<std::string> given_;
-  RepeatedWarningsDropped* outer_;
+  ParameterWarningsOnce* outer_;
 };
 
 /// Prints "diffreg: <message>" on stderr unless quiet mode is on.

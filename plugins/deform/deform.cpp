@@ -84,7 +84,8 @@ void warnInapplicable(const ParamMap& params, MeshKind kind) {
   const DeformationOptions options = deformationOptionsOf(params);
   const auto ignored = [&](const char* name, const std::string& why) {
     if (params.given(name))
-      warn("deform: " + std::string(name) + "=" + params.text().at(name) + " is ignored: " + why);
+      warnParameter("deform: " + std::string(name) + "=" + params.text().at(name) +
+                    " is ignored: " + why);
   };
   if (options.regularization != Regularization::Uniform)
     ignored("beta", "it is the strength of regularization=uniform (here " +

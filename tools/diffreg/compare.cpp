@@ -280,7 +280,7 @@ std::vector<Variant> compareVariants(const CompareSettings& s, double beta) {
 /// Runs every variant on `doc`: its weights, deform with its regularization, measure.
 void runVariants(std::vector<Variant>& variants, const Document& doc, const Step& deformStep) {
   ProgressPrinter printer(1.0);
-  const RepeatedWarningsDropped once;  // what the deform parameters earn is said once
+  const ParameterWarningsOnce once;  // what the deform parameters earn is said once
   for (Variant& v : variants) {
     info("compare: " + v.name);
     Pipeline p;
