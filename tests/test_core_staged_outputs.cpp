@@ -1,6 +1,7 @@
 // StagedOutputs (core/staged_outputs.h): outputs appear together or not at all, and a failure in
 // the middle of the commit gives the targets already renamed their old content back.
 #include <diffreg/core/error.h>
+#include <diffreg/core/log.h>
 #include <diffreg/core/staged_outputs.h>
 
 #include "test_support.h"
@@ -104,6 +105,38 @@ TEST_CASE("a staged write that fails names the output, not its temporary", "[cor
     CHECK(std::string(e.what()) == "cannot write '" + out + "': No space left on device");
   }
   CHECK(temporary != out);
+}
+
+TEST_CASE("what a staged write warns, and a mesh error it throws, name the output",
+          "[core][hostile]") {
+  TempDir tmp;
+  const std::string out = tmp / "out.ply";
+  StagedOutputs staged;
+  std::string temporary;
+  const std::string err = stderrOf([&] {
+    staged.stageWritten(out, [&temporary](const std::string& t) {
+      temporary = t;
+      warn("writing '" + t + "': a property left out");
+    });
+  });
+  CHECK(err == "diffreg: warning: writing '" + out + "': a property left out\n");
+  CHECK(temporary.find(".out.tmp-") != std::string::npos);
+  // Warnings before a failure are said too; the failure keeps its type.
+  const std::string bad = tmp / "bad.ply";
+  const std::string said = stderrOf([&] {
+    CHECK_THROWS_WITH(
+        staged.stageWritten(bad,
+                            [](const std::string& t) {
+                              warn("writing '" + t + "': first");
+                              throw InvalidMesh("cannot write '" + t + "': non-finite coordinates");
+                            }),
+        "cannot write '" + bad + "': non-finite coordinates");
+  });
+  CHECK(said == "diffreg: warning: writing '" + bad + "': first\n");
+  CHECK_THROWS_AS(
+      staged.stageWritten(tmp / "c.ply",
+                          [](const std::string& t) { throw InvalidMesh("'" + t + "'"); }),
+      InvalidMesh);
 }
 
 TEST_CASE("staged outputs of one process do not collide, whatever the working directory does",

@@ -2,10 +2,12 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/file.h>
+#include <diffreg/core/log.h>
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 
 #include <unistd.h>
@@ -49,14 +51,34 @@ std::string StagedOutputs::stage(const std::string& path) {
 void StagedOutputs::stageWritten(const std::string& path,
                                  const std::function<void(const std::string&)>& write) {
   const std::string temporary = stage(path);
-  try {
-    write(temporary);
-  } catch (const IoError& e) {      // e.g. a full disk: the message names the output, not its
-    std::string reason = e.what();  // temporary
-    const size_t at = reason.find(temporary);
-    if (at != std::string::npos) reason.replace(at, temporary.size(), path);
-    throw IoError(reason);
+  // What the writer says of the file (a full disk, a property left out) names the output, not
+  // its temporary.
+  const auto named = [&](std::string text) {
+    for (size_t at = text.find(temporary); at != std::string::npos;
+         at = text.find(temporary, at + path.size()))
+      text.replace(at, temporary.size(), path);
+    return text;
+  };
+  std::vector<std::string> said;
+  std::exception_ptr failure;
+  {
+    WarningCollector collector;
+    try {
+      write(temporary);
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    said = collector.take();
   }
+  for (const auto& w : said) warn(named(w));
+  if (!failure) return;
+  try {
+    std::rethrow_exception(failure);
+  } catch (const IoError& e) {
+    throw IoError(named(e.what()));
+  } catch (const InvalidMesh& e) {
+    throw InvalidMesh(named(e.what()));
+  }  // any other, as it was
 }
 
 void StagedOutputs::stageText(const std::string& path, const std::string& text) {
