@@ -196,6 +196,11 @@ TEST_CASE("diffreg: usage errors exit with 2, other errors with 1") {
   CHECK(typo.errLines[0] ==
         "diffreg: error: unexpected argument 'compar' (commands: filters, compare, serve, "
         "resolution; see diffreg --help)");
+  const auto late = ws.run("-q compare -i in.off");
+  CHECK(late.code == 2);
+  CHECK(late.errLines ==
+        std::vector<std::string>{"diffreg: error: 'compare' must come first: diffreg compare ... "
+                                 "(see diffreg compare --help)"});
   const auto named = ws.run("filters deform");
   CHECK(named.code == 2);
   REQUIRE(named.errLines.size() == 1);

@@ -234,6 +234,10 @@ int run(int argc, char** argv) {
   }
   if (vm.count("command")) {
     const auto commands = vm["command"].as<std::vector<std::string>>();
+    for (const char* command : {"compare", "serve", "resolution"})
+      if (commands[0] == command)
+        throw UsageError("'" + commands[0] + "' must come first: diffreg " + commands[0] +
+                         " ... (see diffreg " + commands[0] + " --help)");
     if (commands[0] != "filters")
       throw UsageError("unexpected argument '" + commands[0] +
                        "' (commands: filters, compare, serve, resolution; see diffreg --help)");
