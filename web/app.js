@@ -554,7 +554,9 @@ function renderMetrics() {
   }).join('');
   $('update-time').textContent = `last update ${(u.seconds * 1000).toFixed(1)} ms`;
   $('update-note').textContent = u.solved ? `last update: ${u.iterations} iteration${u.iterations === 1 ? '' : 's'}, ` +
-    (u.converged ? 'converged' : `criterion ${fmt(u.criterion)} > ${fmt(app.state.params.tolerance)}, refining\u2026`) +
+    (u.converged ? 'converged'
+      : u.criterion === null ? 'criterion not measured yet, refining\u2026'
+      : `criterion ${fmt(u.criterion)} > ${fmt(app.state.params.tolerance)}, refining\u2026`) +
     '; counts since loading' : `not solved: ${u.message}`;
   $('mesh-info').textContent = `${app.mesh.name} \u00b7 ${app.mesh.kind} \u00b7 ${app.mesh.vertices} vertices`;
 }

@@ -158,7 +158,7 @@ struct UpdateReport {
   /// tolerance; false: refine() continues them (false too when nothing solved, `solved`).
   bool converged = true;
   /// The deformation's stopping criterion at the end (DeformationResult::criterion): how far
-  /// from converged the shape is.
+  /// from converged the shape is; NaN after a first global step alone, which nothing measures.
   double criterion = 0.0;
   std::string initialGuess;
   /// False when the weights or the deformation could not be computed for this state (e.g. a

@@ -56,13 +56,13 @@
 // "update": the last update {"solved", "message",
 // "seconds", "weights_seconds", "deformation_seconds", "reference_seconds",
 // "metrics_seconds", "iterations", "converged", "criterion" (how far from converged:
-// DeformationResult::criterion), "weights_work", "deformation_work",
-// "reference_work" ("none"|"solve"|"numeric"|"analysis"|"evaluate"; the weights also
-// "superpose": a new magnitude under the same matrix, no solve), "weights",
-// "deformation", "reference": counters {"symbolic", "numeric", "solves"} of that update},
-// "totals": the counters summed over the session, "mesh": {"name", "kind", "vertices"}}.
-// Edit responses add "coalesced": true when a newer edit was waiting, so this one did not
-// solve (the newer one brings the results), and "created" after POST /api/handles.
+// DeformationResult::criterion; null after a first global step alone), "weights_work",
+// "deformation_work", "reference_work" ("none"|"solve"|"numeric"|"analysis"|"evaluate"; the weights
+// also "superpose": a new magnitude under the same matrix, no solve), "weights", "deformation",
+// "reference": counters {"symbolic", "numeric", "solves"} of that update}, "totals": the counters
+// summed over the session, "mesh": {"name", "kind", "vertices"}}. Edit responses add "coalesced":
+// true when a newer edit was waiting, so this one did not solve (the newer one brings the results),
+// and "created" after POST /api/handles.
 //
 // Status codes: 200 success; 400 malformed JSON, a field of the wrong type or an unknown field;
 // 404 unknown endpoint or handle id; 405 method not allowed on an endpoint; 413 body larger than

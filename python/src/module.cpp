@@ -340,7 +340,8 @@ void bindDeformation(py::module_& m) {
          "targets (hard constraints), as the filter deform of the diffreg tool. targets: one "
          "(k_j, 3) array per handle, or one array stacked handle by handle. weights: one per "
          "vertex, for regularization='nonuniform'. X is (n, 3) (planar meshes keep z). info "
-         "is the tool's report entry: energies (per iteration), iterations, converged, "
+         "is the tool's report entry (a criterion it has as null is NaN here): energies (per "
+         "iteration), iterations, converged, "
          "criterion, initial_guess, local_step, acceleration, the solver counters symbolic, "
          "numeric, solves and their seconds, params. " +
          kProgressDoc + "\n\n" + paramDoc("deform"))

@@ -17,7 +17,8 @@ namespace diffreg::python {
 inline constexpr const char* kProgressDoc =
     "progress: None or a callable progress(iteration, energy, criterion), called after every "
     "iteration of a deformation with its 1-based count, the energy and the stopping "
-    "criterion's value (NaN where not measured yet: a first step from the rest shape); an "
+    "criterion's value (NaN where not measured yet: a first step from the rest shape or a given "
+    "shape); an "
     "exception it raises ends the run and is raised by this call. On "
     "the main thread Ctrl-C (KeyboardInterrupt) stops a running deformation too, at the end "
     "of an iteration.";
