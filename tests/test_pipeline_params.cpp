@@ -126,6 +126,11 @@ TEST_CASE("ParamMap errors are one line naming filter, parameter and value") {
         "filter f has no parameter 'tt' (parameters: t, steps, flag, order, label)");
   CHECK_THROWS_WITH(ParamMap("g", {}, {{"x", "1"}}),
                     "filter g has no parameter 'x' (it takes no parameters)");
+  // A NUL byte would end the number and the message: refused, shown.
+  using namespace std::string_literals;
+  CHECK(errorOf({{"t", "0.5\0junk"s}}) ==
+        "filter f: parameter 't' = '0.5\\x00junk' has a NUL byte");
+  CHECK(errorOf({{"label", "a\0b"s}}) == "filter f: parameter 'label' = 'a\\x00b' has a NUL byte");
 }
 
 TEST_CASE("Reading an undeclared parameter is a logic error, not a user error") {
@@ -176,6 +181,8 @@ TEST_CASE("parseFilterSpec rejects malformed specs") {
   CHECK_THROWS_AS(parseFilterSpec("   "), InvalidParameter);
   CHECK_THROWS_AS(parseFilterSpec("t=0.01"), InvalidParameter);
   CHECK_THROWS_AS(parseFilterSpec("f x='open"), InvalidParameter);
+  CHECK_THROWS_WITH(parseFilterSpec(std::string("f t=1\0x", 7)),
+                    "filter 'f t=1\\x00x': the specification has a NUL byte");
 }
 
 TEST_CASE("Registry: sorted names, lookup, duplicates and bad tables") {

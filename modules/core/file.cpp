@@ -1,6 +1,7 @@
 #include <diffreg/core/file.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/text.h>
 
 #include <fcntl.h>
 #include <limits.h>
@@ -66,9 +67,7 @@ int openChecked(const std::string& path, const std::string& what, std::uint64_t 
 
 void checkNoNul(const std::string& path, const std::string& doing) {
   if (path.find('\0') == std::string::npos) return;
-  std::string shown;  // a message is a C string: the NUL written out
-  for (char c : path) shown += c == '\0' ? std::string("\\x00") : std::string(1, c);
-  throw IoError("cannot " + doing + " '" + shown + "': the name has a NUL byte");
+  throw IoError("cannot " + doing + " '" + nulShown(path) + "': the name has a NUL byte");
 }
 
 std::string byteText(std::uint64_t bytes) {

@@ -90,4 +90,10 @@ std::string terminalLine(const std::string& text, size_t maxBytes) {
   return out;
 }
 
+std::string nulShown(const std::string& text) {
+  std::string shown;
+  for (char c : text) shown += c == '\0' ? std::string("\\x00") : std::string(1, c);
+  return shown;
+}
+
 }  // namespace diffreg

@@ -23,4 +23,7 @@ std::string escapeNonUtf8(const std::string& bytes);
 /// value stays readable.
 std::string terminalLine(const std::string& text, size_t maxBytes = 2000);
 
+/// `text` with each NUL byte written as "\x00": a message is a C string, which would end there.
+std::string nulShown(const std::string& text);
+
 }  // namespace diffreg

@@ -1,6 +1,7 @@
 #include <diffreg/pipeline/params.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/text.h>
 
 #include <cctype>
 #include <cerrno>
@@ -183,6 +184,10 @@ ParamMap::ParamMap(const std::string& filter, const std::vector<ParamSpec>& spec
                    const std::map<std::string, std::string>& values)
     : filter_(filter) {
   for (const auto& [name, value] : values) {
+    // A NUL would end the number (strtod) and every message there: what follows would be lost.
+    if (name.find('\0') != std::string::npos || value.find('\0') != std::string::npos)
+      throw InvalidParameter("filter " + filter + ": parameter '" + nulShown(name) + "' = '" +
+                             nulShown(value) + "' has a NUL byte");
     bool known = false;
     for (const auto& spec : specs) known = known || spec.name == name;
     if (!known) {
@@ -223,6 +228,9 @@ std::string ParamMap::getString(const std::string& name) const { return raw(name
 
 std::pair<std::string, std::map<std::string, std::string>> parseFilterSpec(
     const std::string& spec) {
+  // A NUL would end every message (and every number) there: what follows it would be lost.
+  if (spec.find('\0') != std::string::npos)
+    throw InvalidParameter("filter '" + nulShown(spec) + "': the specification has a NUL byte");
   // Split on whitespace; '...' or "..." keep whitespace inside a token and are removed.
   std::vector<std::string> tokens;
   std::string token;

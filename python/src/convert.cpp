@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <exception>
+#include <optional>
 #include <sstream>
 
 namespace diffreg::python {
@@ -285,17 +286,37 @@ void checkWeightsFor(const std::string& who, const std::string& regularization,
         ")");
 }
 
+namespace {
+
+bool isNumpyBool(const py::handle& value) {
+  return py::isinstance(value, py::module_::import("numpy").attr("bool_"));
+}
+
+/// An integer's text by operator.index (ints, numpy integers and integer 0-d arrays); nothing
+/// for the others: int() would truncate a float array's 0.5 to 0.
+std::optional<std::string> indexText(const py::handle& value) {
+  if (!PyIndex_Check(value.ptr())) return std::nullopt;
+  PyObject* index = PyNumber_Index(value.ptr());
+  if (!index) {
+    PyErr_Clear();
+    return std::nullopt;
+  }
+  return std::string(py::str(py::reinterpret_steal<py::object>(index)));
+}
+
+}  // namespace
+
 std::map<std::string, std::string> toParamText(const py::dict& kwargs) {
   std::map<std::string, std::string> out;
   for (const auto& [key, value] : kwargs) {
     const std::string name = py::str(key);
     if (value.is_none()) continue;
-    if (PyBool_Check(value.ptr())) {
-      out[name] = value.cast<bool>() ? "true" : "false";
+    if (PyBool_Check(value.ptr()) || isNumpyBool(value)) {
+      out[name] = PyObject_IsTrue(value.ptr()) ? "true" : "false";
     } else if (py::isinstance<py::str>(value)) {
       out[name] = value.cast<std::string>();
-    } else if (PyIndex_Check(value.ptr())) {
-      out[name] = std::string(py::str(py::int_(py::reinterpret_borrow<py::object>(value))));
+    } else if (const std::optional<std::string> index = indexText(value)) {
+      out[name] = *index;
     } else if (PyFloat_Check(value.ptr()) || py::hasattr(value, "__float__")) {
       out[name] =
           formatNumber(py::float_(py::reinterpret_borrow<py::object>(value)).cast<double>());

@@ -287,11 +287,45 @@ class PyDeformationSession {
   std::vector<int> perHandle_;
 };
 
+// A method of `Class` that refuses an object whose __init__ never ran (Class.__new__(Class)):
+// pybind11 would run the method on unbuilt memory. Self is taken as a handle, checked for its
+// type and for a built holder, and only then used as a Class.
+template <class Class>
+struct Built {
+  const char* name;
+  template <class R, class... A>
+  auto operator()(R (Class::*method)(A...)) const {
+    return [method, name = name](py::handle self, A... args) -> R {
+      return (built(self, name)->*method)(std::forward<A>(args)...);
+    };
+  }
+  template <class R, class... A>
+  auto operator()(R (Class::*method)(A...) const) const {
+    return [method, name = name](py::handle self, A... args) -> R {
+      return (built(self, name)->*method)(std::forward<A>(args)...);
+    };
+  }
+  static Class* built(py::handle self, const char* name) {
+    if (!py::isinstance<Class>(self))
+      throw py::type_error(std::string(name) + " method called on a " +
+                           std::string(py::str(py::type::of(self).attr("__name__"))));
+    auto* instance = reinterpret_cast<py::detail::instance*>(self.ptr());
+    const auto holder = instance->get_value_and_holder(py::detail::get_type_info(typeid(Class)));
+    if (!holder || !holder.holder_constructed())
+      throw py::type_error(std::string(name) +
+                           ": the object was made without __init__; make it "
+                           "as " +
+                           name + "(...)");
+    return holder.template value_ptr<Class>();
+  }
+};
+
 // The docstring of both sessions' `stats`.
 const char* const kStatsDoc = "Solver counters: symbolic, numeric, solves and their seconds.";
 
 // DiffusionWeights: the diffused weights that keep their factorization between solves.
 void bindDiffusionWeights(py::module_& m) {
+  const Built<PyDiffusionWeights> built{"DiffusionWeights"};
   py::class_<PyDiffusionWeights>(
       m, "DiffusionWeights",
       ("DiffusionWeights(V, E" + paramSignature("diffuse_weights") +
@@ -309,33 +343,34 @@ void bindDiffusionWeights(py::module_& m) {
              return made;
            }),
            py::arg("V"), py::arg("E"))
-      .def("set_handles", &PyDiffusionWeights::setHandles, py::call_guard<PyWarnings>(),
+      .def("set_handles", built(&PyDiffusionWeights::setHandles), py::call_guard<PyWarnings>(),
            py::arg("handles"), py::arg("ranges") = py::none(), py::arg("magnitudes") = py::none(),
            "set_handles(handles, ranges=None, magnitudes=None)\n\nHandle vertex sets (a list "
            "of vertex-id arrays) with ranges r_j in [1e-6, 1e6] and magnitudes m_j in [0, 1] "
            "(default 1).")
-      .def("set_range", &PyDiffusionWeights::setRange, py::call_guard<PyWarnings>(),
+      .def("set_range", built(&PyDiffusionWeights::setRange), py::call_guard<PyWarnings>(),
            py::arg("handle"), py::arg("r"),
            "set_range(handle, r)\n\nThe range r_j of handle j (0-based).")
-      .def("set_magnitude", &PyDiffusionWeights::setMagnitude, py::call_guard<PyWarnings>(),
+      .def("set_magnitude", built(&PyDiffusionWeights::setMagnitude), py::call_guard<PyWarnings>(),
            py::arg("handle"), py::arg("m"),
            "set_magnitude(handle, m)\n\nThe magnitude m_j of handle j (0-based).")
-      .def("set_params", &PyDiffusionWeights::setParams, py::call_guard<PyWarnings>(),
+      .def("set_params", built(&PyDiffusionWeights::setParams), py::call_guard<PyWarnings>(),
            ("set_params(**params)\n\nChanges any of the diffuse_weights parameters (the others "
             "keep their values).\n\n" +
             paramDoc("diffuse_weights"))
                .c_str())
-      .def("solve", &PyDiffusionWeights::solve, py::call_guard<PyWarnings>(),
+      .def("solve", built(&PyDiffusionWeights::solve), py::call_guard<PyWarnings>(),
            "solve() -> weights (n,)")
-      .def_property_readonly("params", &PyDiffusionWeights::params,
+      .def_property_readonly("params", built(&PyDiffusionWeights::params),
                              "The current parameters as the tool's text values.")
-      .def_property_readonly("absolute_time", &PyDiffusionWeights::absoluteTime,
+      .def_property_readonly("absolute_time", built(&PyDiffusionWeights::absoluteTime),
                              "t in length^2 after applying t_unit.")
-      .def_property_readonly("stats", &PyDiffusionWeights::stats, kStatsDoc);
+      .def_property_readonly("stats", built(&PyDiffusionWeights::stats), kStatsDoc);
 }
 
 // DeformationSession: the regularized deformation that keeps its factorization between solves.
 void bindDeformationSession(py::module_& m) {
+  const Built<PyDeformationSession> built{"DeformationSession"};
   const std::string limitsDoc =
       "iterations, tolerance: None = the session's (from the constructor's parameters). " +
       std::string(kProgressDoc);
@@ -357,33 +392,33 @@ void bindDeformationSession(py::module_& m) {
              return made;
            }),
            py::arg("V"), py::arg("E"), py::arg("weights") = py::none())
-      .def("set_handles", &PyDeformationSession::setHandles, py::call_guard<PyWarnings>(),
+      .def("set_handles", built(&PyDeformationSession::setHandles), py::call_guard<PyWarnings>(),
            py::arg("handles"),
            "set_handles(handles)\n\nConstrained vertices, a list of vertex-id arrays (one per "
            "handle); their targets reset to the rest positions.")
-      .def("set_targets", &PyDeformationSession::setTargets, py::call_guard<PyWarnings>(),
+      .def("set_targets", built(&PyDeformationSession::setTargets), py::call_guard<PyWarnings>(),
            py::arg("targets"),
            "set_targets(targets)\n\nOne (k_j, 3) array per handle, or one array stacked handle "
            "by handle.")
-      .def("set_regularization", &PyDeformationSession::setRegularization,
+      .def("set_regularization", built(&PyDeformationSession::setRegularization),
            py::call_guard<PyWarnings>(), py::arg("regularization"), py::arg("beta") = py::none(),
            py::arg("weights") = py::none(),
            "set_regularization(regularization, beta=None, weights=None)\n\n'none', 'uniform' "
            "(with beta, default the deform filter's) or 'nonuniform' (with weights, one per "
            "vertex).")
-      .def("set_beta", &PyDeformationSession::setBeta, py::call_guard<PyWarnings>(),
+      .def("set_beta", built(&PyDeformationSession::setBeta), py::call_guard<PyWarnings>(),
            py::arg("beta"), "set_beta(beta)\n\nUniform regularization with this beta.")
-      .def("set_weights", &PyDeformationSession::setWeights, py::call_guard<PyWarnings>(),
+      .def("set_weights", built(&PyDeformationSession::setWeights), py::call_guard<PyWarnings>(),
            py::arg("weights"),
            "set_weights(weights)\n\nNon-uniform regularization with these vertex weights.")
-      .def("set_time_budget", &PyDeformationSession::setTimeBudget, py::call_guard<PyWarnings>(),
-           py::arg("seconds"),
+      .def("set_time_budget", built(&PyDeformationSession::setTimeBudget),
+           py::call_guard<PyWarnings>(), py::arg("seconds"),
            "set_time_budget(seconds)\n\nSeconds each solve, solve_from or resume may iterate "
            "(0: no limit, the default): the run stops unconverged after the first iteration "
            "that leaves less time than it took itself, and resume() continues it with the "
            "steps of one run. For interactive "
            "use; where it stops depends on the machine.")
-      .def("solve", &PyDeformationSession::solve, py::call_guard<PyWarnings>(),
+      .def("solve", built(&PyDeformationSession::solve), py::call_guard<PyWarnings>(),
            py::arg("iterations") = py::none(), py::arg("tolerance") = py::none(),
            py::arg("progress") = py::none(),
            ("solve(iterations=None, tolerance=None, progress=None) -> (X, info)\n\nFrom the rest "
@@ -392,7 +427,7 @@ void bindDeformationSession(py::module_& m) {
             "initial_guess, seconds and the session's counters. " +
             limitsDoc)
                .c_str())
-      .def("solve_from", &PyDeformationSession::solveFrom, py::call_guard<PyWarnings>(),
+      .def("solve_from", built(&PyDeformationSession::solveFrom), py::call_guard<PyWarnings>(),
            py::arg("initial"), py::arg("iterations") = py::none(),
            py::arg("tolerance") = py::none(), py::arg("progress") = py::none(),
            ("solve_from(initial, iterations=None, tolerance=None, progress=None) -> (X, "
@@ -401,7 +436,7 @@ void bindDeformationSession(py::module_& m) {
             "dragging. " +
             limitsDoc)
                .c_str())
-      .def("resume", &PyDeformationSession::resume, py::call_guard<PyWarnings>(),
+      .def("resume", built(&PyDeformationSession::resume), py::call_guard<PyWarnings>(),
            py::arg("iterations") = py::none(), py::arg("tolerance") = py::none(),
            py::arg("progress") = py::none(),
            ("resume(iterations=None, tolerance=None, progress=None) -> (X, info)\n\nContinues the "
@@ -409,14 +444,14 @@ void bindDeformationSession(py::module_& m) {
             "where it stopped (as one long run); solves afresh when nothing can be continued. " +
             limitsDoc)
                .c_str())
-      .def("last_targets", &PyDeformationSession::lastTargets, py::call_guard<PyWarnings>(),
+      .def("last_targets", built(&PyDeformationSession::lastTargets), py::call_guard<PyWarnings>(),
            "last_targets() -> array or None\n\nThe targets of the shape the last run stopped "
            "at: (m d, d), the d x d block T_k^T of each element in its d rows, d the mesh's "
            "dimension (2 planar, 3 otherwise). measure(..., start_targets=...) relaxes the "
            "energy of that shape from them (a step or two instead of many). None when nothing "
            "can be continued (as resume(): no run yet, a linear energy, or new handles, targets "
            "or regularization since).")
-      .def_property_readonly("stats", &PyDeformationSession::stats, kStatsDoc);
+      .def_property_readonly("stats", built(&PyDeformationSession::stats), kStatsDoc);
 }
 
 }  // namespace

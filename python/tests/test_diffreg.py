@@ -392,6 +392,37 @@ def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
         diffreg.deform(Vs, Es, [[0], [5]], [Vs[[0], :2], Vs[[5], :2]])
 
 
+
+def test_parameters_keep_their_value_and_every_byte():
+    V, E = square()
+    # A 0-d numpy array is its number: int() would truncate 0.5 to 0, and 1.7 to an in-range 1.
+    _, info = diffreg.deform(V, E, [[0], [2]], None, regularization="uniform", beta=np.array(0.5))
+    assert info["params"]["beta"] == "0.5"
+    with pytest.raises(ValueError, match="'beta' = '1.7' is out of range"):
+        diffreg.deform(V, E, [[0], [2]], None, regularization="uniform", beta=np.array(1.7))
+    _, info = diffreg.deform(V, E, [[0], [2]], None, iterations=np.array(7), tolerance=np.float32(0.5))
+    assert info["params"]["iterations"] == "7" and info["params"]["tolerance"] == "0.5"
+    # numpy's bool is a bool, as True is: not the integer 1.
+    with pytest.raises(ValueError, match="'iterations' = 'true' is not an integer"):
+        diffreg.deform(V, E, [[0], [2]], None, iterations=np.bool_(True))
+    # A NUL byte is refused, never the end of the value.
+    with pytest.raises(ValueError, match=r"'beta' = '0.9\\x00garbage' has a NUL byte"):
+        diffreg.deform(V, E, [[0], [2]], None, regularization="uniform", beta="0.9\x00garbage")
+    with pytest.raises(ValueError, match="the specification has a NUL byte"):
+        diffreg.run((V, E), ["deform regularization=uniform beta=0.9\x00garbage"], handles=[[0], [2]])
+
+
+def test_an_object_made_without_init_is_refused_not_used():
+    for cls in (diffreg.DeformationSession, diffreg.DiffusionWeights):
+        unbuilt = cls.__new__(cls)
+        with pytest.raises(TypeError, match="made without __init__"):
+            unbuilt.solve()
+        with pytest.raises(TypeError, match="made without __init__"):
+            unbuilt.stats
+        with pytest.raises(TypeError, match="method called on a int"):
+            cls.solve(42)
+
+
 # ---- sessions (paper Fig. 5) ----------------------------------------------------------------------
 
 def test_diffusion_session_reuses_its_factorization():
