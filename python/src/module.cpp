@@ -201,6 +201,9 @@ py::tuple readHandleFile(const py::object& file, const py::object& V, const py::
 void writeArrays(const py::object& file, const py::object& V, const py::object& E,
                  const py::object& vertexProperties, const py::object& elementProperties,
                  const std::string& vertexQuality, const std::string& faceQuality, bool colors) {
+  // Its warnings issued before the file is put in place: one that the filters make an error
+  // leaves the file as it was.
+  PyWarnings warnings;
   const std::string path = toPath(file, "path");
   Mesh mesh = toMesh(V, E);
   if (!vertexProperties.is_none())
@@ -219,8 +222,14 @@ void writeArrays(const py::object& file, const py::object& V, const py::object& 
   options.vertexQuality = vertexQuality;
   options.faceQuality = faceQuality;
   options.colors = colors;
-  py::gil_scoped_release release;
-  writeMesh(path, mesh, options);
+  StagedOutputs staged;
+  {
+    py::gil_scoped_release release;
+    staged.stageWritten(path,
+                        [&](const std::string& temporary) { writeMesh(temporary, mesh, options); });
+  }
+  warnings.issue();
+  staged.commit();
 }
 
 py::dict propertiesOf(const Mesh& mesh, bool vertex) {
@@ -381,7 +390,7 @@ void bindFiles(py::module_& m) {
         "read_handles(path, V, E) -> (handles, targets, ranges, magnitudes, names)\n\nReads "
         "a handle file (the tool's --handles JSON) against the rest shape (V, E): the vertex "
         "ids and (k_j, 3) targets of each handle, ready for deform() and diffuse_weights().");
-  m.def("write_mesh", &writeArrays, py::call_guard<PyWarnings>(), py::arg("path"), py::arg("V"),
+  m.def("write_mesh", &writeArrays, py::arg("path"), py::arg("V"),  // its own PyWarnings
         py::arg("E"), py::arg("vertex_properties") = py::none(),
         py::arg("element_properties") = py::none(),
         py::arg("vertex_quality") = std::string(prop::weight),

@@ -322,9 +322,20 @@ def test_warnings_go_through_the_warnings_module(tmp_path, capfd):
         for session in (diffreg.DeformationSession, diffreg.DiffusionWeights):
             with pytest.raises(diffreg.DiffregWarning, match="unreferenced"):
                 session(spare, E)
+        # write_mesh says its warnings before the file is put in place: as an error, the file
+        # keeps what it held.
+        keep = tmp_path / "keep.ply"
+        keep.write_text("precious")
+        with pytest.raises(diffreg.DiffregWarning, match="'a b' is not written"):
+            diffreg.write_mesh(str(keep), V, E, vertex_properties={"a b": np.ones(len(V))})
+        assert keep.read_text() == "precious"
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["extra.obj", "keep.ply"]
         warnings.simplefilter("ignore")
         V2, _ = diffreg.read_mesh(str(path))
     assert V2.shape == (3, 3)
+    with pytest.warns(diffreg.DiffregWarning, match=r"'a b' is not written"):
+        diffreg.write_mesh(str(keep), V, E, vertex_properties={"a b": np.ones(len(V))})
+    assert keep.read_text().startswith("ply")
 
 
 def test_errors_are_python_exceptions_with_the_tools_messages(tmp_path):
