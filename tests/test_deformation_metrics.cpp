@@ -10,6 +10,8 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -122,6 +124,34 @@ TEST_CASE("metrics of the rest shape and of simple motions", "[deformation][metr
     CHECK(s.dAve == Approx(0.25));
     CHECK(s.dDev == Approx(0.0).margin(1e-9));
     CHECK(facetSmoothness(*disc, Energy::Dirichlet, stretched).cwiseAbs().maxCoeff() < 1e-20);
+  }
+}
+
+TEST_CASE("positions beyond 1e30 are refused, never measured as NaN or infinity",
+          "[deformation][metrics][hostile]") {
+  for (MeshKind kind : kAllKinds) {
+    const auto disc = makeBar(kind);
+    const auto w = makeRegularizationWeights(*disc, Regularization::Uniform, 0.5);
+    INFO(toString(kind));
+    const Eigen::MatrixXd& rest = disc->rest();
+    // Scaled to a size whose squares overflow; moved far away; not finite.
+    const Eigen::MatrixXd scaled = rest * 1e78;
+    const Eigen::MatrixXd moved = (rest.array() + 1e155).matrix();
+    Eigen::MatrixXd broken = rest;
+    broken(1, 0) = std::numeric_limits<double>::quiet_NaN();
+    for (const Eigen::MatrixXd* X :
+         std::initializer_list<const Eigen::MatrixXd*>{&scaled, &moved, &broken}) {
+      CHECK_THROWS_WITH(measureDeformation(*disc, Energy::Arap, *X, w),
+                        Catch::Contains("metrics: the positions have a coordinate"));
+      CHECK_THROWS_WITH(measureDeformation(*disc, Energy::Arap, rest, w, X),
+                        Catch::Contains("metrics: the reference positions have a coordinate"));
+      CHECK_THROWS_AS(elementDistortion(*disc, Energy::Arap, *X), InvalidParameter);
+    }
+    // Within the bound: finite.
+    const DeformationMetrics large = measureDeformation(*disc, Energy::Arap, rest * 1e29, w, &rest);
+    CHECK(std::isfinite(large.dMax));
+    CHECK(std::isfinite(large.energy));
+    CHECK(std::isfinite(*large.dist));
   }
 }
 

@@ -9,17 +9,32 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
 namespace diffreg {
 namespace {
 
-void checkPositions(const Discretization& disc, const Eigen::MatrixXd& X) {
+void checkPositions(const Discretization& disc, const Eigen::MatrixXd& X,
+                    const char* what = "positions") {
   if (X.rows() != disc.numVertices() || X.cols() != disc.dim())
-    throw InvalidParameter("metrics: positions are " + std::to_string(X.rows()) + " x " +
-                           std::to_string(X.cols()) + ", expected " +
+    throw InvalidParameter("metrics: " + std::string(what) + " are " + std::to_string(X.rows()) +
+                           " x " + std::to_string(X.cols()) + ", expected " +
                            std::to_string(disc.numVertices()) + " x " + std::to_string(disc.dim()));
+  // As for the rest shape's size: beyond kMaxMeshSize the squares and products of the measures
+  // overflow (a NaN distortion at 1e78, an infinite one or Dist at 1e155).
+  if (!X.allFinite())  // maxCoeff below may pass over a NaN
+    throw InvalidParameter("metrics: the " + std::string(what) +
+                           " have a coordinate that is not finite");
+  const double largest = X.size() ? X.cwiseAbs().maxCoeff() : 0.0;
+  if (largest > kMaxMeshSize) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.3g", largest);
+    throw InvalidParameter("metrics: the " + std::string(what) +
+                           " have a coordinate of magnitude " + text +
+                           ", outside [-1e30, 1e30] where the measures keep double precision");
+  }
 }
 
 }  // namespace
@@ -189,7 +204,10 @@ DeformationMetrics measureDeformation(const Discretization& disc, Energy energy,
     regularizer.setWeights(weights);
     m.energy = relaxedEnergy(model, regularizer, positions, startTargets);
   }
-  if (reference) m.dist = rmsDistance(positions, *reference, disc.active());
+  if (reference) {
+    checkPositions(disc, *reference, "reference positions");
+    m.dist = rmsDistance(positions, *reference, disc.active());
+  }
   return m;
 }
 
