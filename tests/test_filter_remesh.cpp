@@ -348,6 +348,13 @@ TEST_CASE("flip_edges and subdivide refuse tet meshes and bad parameters with on
                     Catch::Contains("midpoint, loop"));
   CHECK_THROWS_WITH(check("subdivide", {{"iterations", "-1"}}), Catch::Contains("iterations"));
   CHECK_THROWS_WITH(check("subdivide", {{"handles", "drop"}}), Catch::Contains("grow, keep"));
+  // A result beyond 2^24 triangles is refused before any work (the bar's 512 triangles, 8
+  // steps: 33.5M), the mesh untouched; 7 steps (8.4M) stay within it.
+  Document big = bar;
+  CHECK_THROWS_WITH(run(big, {{"subdivide", {{"iterations", "8"}}}}),
+                    "filter subdivide: parameter 'iterations' = 8 would make 33554432 triangles "
+                    "of the mesh's 512, more than the 16777216 allowed");
+  CHECK(big.mesh.numElements() == 512);
   // Zero flips or zero iterations change nothing.
   const Document same =
       run(bar, {{"flip_edges", {{"fraction", "0"}}}, {"subdivide", {{"iterations", "0"}}}});

@@ -4,7 +4,12 @@
 
 #include <diffreg/pipeline/filter.h>
 
+#include <cstdint>
+
 namespace diffreg {
+
+/// The most triangles subdivide makes (2^24, about 1.5 GB of mesh): more is refused before work.
+inline constexpr std::int64_t kMaxSubdividedTriangles = std::int64_t(1) << 24;
 
 /// Parameters: iterations, scheme (midpoint|loop), handles (grow|keep). The old vertices keep
 /// their ids 0..n-1 (mesh/remesh.h subdivide), so handles stay valid; the rest positions are
