@@ -244,6 +244,14 @@ py::dict runPipeline(const py::object& meshArg, const py::object& filters,
                      const py::object& magnitudes, const py::object& script,
                      const py::object& progress) {
   PyWarnings warnings;
+  // targets, ranges and magnitudes complete a handle list; a handle file has its own.
+  for (const auto& [name, value] : {std::pair<const char*, const py::object*>{"targets", &targets},
+                                    {"ranges", &ranges},
+                                    {"magnitudes", &magnitudes}})
+    if (!value->is_none() && (handles.is_none() || isPath(handles)))
+      throw InvalidParameter(
+          std::string("run: ") + name + " go with a list of handles, " +
+          (handles.is_none() ? "and none is given" : "not with a handle file (it has its own)"));
   Document doc;
   if (isPath(meshArg)) {
     const std::string path = toPath(meshArg, "mesh");

@@ -423,6 +423,16 @@ def test_parameters_keep_their_value_and_every_byte():
         diffreg.run((V, E), ["deform regularization=uniform beta=0.9\x00garbage"], handles=[[0], [2]])
 
 
+def test_run_refuses_handle_values_it_would_not_use(tmp_path):
+    V, E, handles, targets, ranges, magnitudes = scenario("bar.obj", "bar-bend.json")
+    with pytest.raises(ValueError, match="run: targets go with a list of handles, not with a handle file"):
+        diffreg.run(mesh("bar.obj"), ["deform"], handles=mesh("bar-bend.json"), targets=targets)
+    with pytest.raises(ValueError, match="run: ranges go with a list of handles, and none is given"):
+        diffreg.run((V, E), ["measure"], ranges="x")
+    with pytest.raises(ValueError, match="run: magnitudes go with a list of handles"):
+        diffreg.run((V, E), ["measure"], handles=mesh("bar-bend.json"), magnitudes=magnitudes)
+
+
 def test_an_object_made_without_init_is_refused_not_used():
     for cls in (diffreg.DeformationSession, diffreg.DiffusionWeights):
         unbuilt = cls.__new__(cls)
