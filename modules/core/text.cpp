@@ -1,6 +1,7 @@
 #include <diffreg/core/text.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 
 namespace diffreg {
@@ -88,6 +89,12 @@ std::string terminalLine(const std::string& text, size_t maxBytes) {
   }
   if (i < text.size()) out += "... (" + std::to_string(text.size() - i) + " more bytes)";
   return out;
+}
+
+std::string numberText(double value) {
+  char digits[32];
+  const auto r = std::to_chars(digits, digits + sizeof digits, value);
+  return std::string(digits, r.ptr);
 }
 
 std::string nulShown(const std::string& text) {

@@ -23,6 +23,9 @@ std::string escapeNonUtf8(const std::string& bytes);
 /// value stays readable.
 std::string terminalLine(const std::string& text, size_t maxBytes = 2000);
 
+/// The shortest text that reads back as `value` ("-1", "0.5", "1e+308"; "nan", "inf").
+std::string numberText(double value);
+
 /// `text` with each NUL byte written as "\x00": a message is a C string, which would end there.
 std::string nulShown(const std::string& text);
 

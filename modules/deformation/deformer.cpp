@@ -2,6 +2,7 @@
 #include <diffreg/deformation/session_core.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/text.h>
 #include <diffreg/discretization/element_order.h>
 
 #include <algorithm>
@@ -138,8 +139,10 @@ void DeformationCore::setHandleBasis(bool on) {
 
 void DeformationCore::setTimeBudget(double seconds) {
   if (!(seconds >= 0.0) || !std::isfinite(seconds))
-    throw InvalidParameter("deformation: the time budget must be a non-negative number of "
-                           "seconds, not " + std::to_string(seconds));
+    throw InvalidParameter(
+        "deformation: the time budget must be a non-negative number of "
+        "seconds, not " +
+        numberText(seconds));
   budget_ = seconds;
 }
 

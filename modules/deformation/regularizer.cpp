@@ -1,6 +1,7 @@
 #include <diffreg/deformation/regularizer.h>
 
 #include <diffreg/core/error.h>
+#include <diffreg/core/text.h>
 
 #include <algorithm>
 #include <cmath>
@@ -54,8 +55,7 @@ RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regu
       break;
     case Regularization::Uniform:
       if (!(beta >= 0.0 && beta <= 1.0))
-        throw InvalidParameter("regularization: beta = " + std::to_string(beta) +
-                               " is outside [0, 1]");
+        throw InvalidParameter("regularization: beta = " + numberText(beta) + " is outside [0, 1]");
       w.element.setConstant(m, beta);
       w.facet.setConstant(nf, beta);
       break;

@@ -306,6 +306,49 @@ std::optional<std::string> indexText(const py::handle& value) {
 
 }  // namespace
 
+namespace {
+
+[[noreturn]] void wrongType(const py::handle& value, const char* what, const char* expected) {
+  throw InvalidParameter(std::string(what) + ": expected " + expected + ", got " +
+                         std::string(py::str(py::type::of(value).attr("__name__"))));
+}
+
+}  // namespace
+
+double toReal(const py::handle& value, const char* what) {
+  if (PyBool_Check(value.ptr()) || isNumpyBool(value) || py::isinstance<py::str>(value) ||
+      py::isinstance<py::bytes>(value) || !py::hasattr(value, "__float__"))
+    wrongType(value, what, "a number");
+  PyObject* number = PyNumber_Float(value.ptr());
+  if (!number) {  // e.g. a 2-element array
+    PyErr_Clear();
+    wrongType(value, what, "a number");
+  }
+  return py::reinterpret_steal<py::float_>(number).cast<double>();
+}
+
+long long toInteger(const py::handle& value, const char* what) {
+  if (PyBool_Check(value.ptr()) || isNumpyBool(value) || !indexText(value))
+    wrongType(value, what, "an integer");
+  const long long v =
+      PyLong_AsLongLong(py::reinterpret_steal<py::object>(PyNumber_Index(value.ptr())).ptr());
+  if (v == -1 && PyErr_Occurred()) {  // beyond 64 bits
+    PyErr_Clear();
+    throw InvalidParameter(std::string(what) + ": " + *indexText(value) + " is out of range");
+  }
+  return v;
+}
+
+bool toFlag(const py::handle& value, const char* what) {
+  if (!PyBool_Check(value.ptr()) && !isNumpyBool(value)) wrongType(value, what, "a bool");
+  return PyObject_IsTrue(value.ptr()) == 1;
+}
+
+std::string toText(const py::handle& value, const char* what) {
+  if (!py::isinstance<py::str>(value)) wrongType(value, what, "a str");
+  return value.cast<std::string>();
+}
+
 std::map<std::string, std::string> toParamText(const py::dict& kwargs) {
   std::map<std::string, std::string> out;
   for (const auto& [key, value] : kwargs) {

@@ -44,6 +44,17 @@ Eigen::MatrixXi toElements(const py::handle& array, int numVertices);
 /// One 1-D array (or sequence) of vertex ids in [0, numVertices).
 std::vector<int> toIds(const py::handle& array, const char* what, int numVertices);
 
+/// Scalars of the methods' own arguments, converted here so that a wrong type is a ValueError
+/// naming `what`, not pybind11's TypeError that prints every argument (whole arrays).
+/// A real number: a Python or numpy number or a 0-d array (not a bool, nor a str).
+double toReal(const py::handle& value, const char* what);
+/// An integer by operator.index (a Python or numpy integer, not a bool).
+long long toInteger(const py::handle& value, const char* what);
+/// A bool (Python's or numpy's).
+bool toFlag(const py::handle& value, const char* what);
+/// A str.
+std::string toText(const py::handle& value, const char* what);
+
 /// Whether `value` names a file as Python's open() takes one: a str, bytes or os.PathLike
 /// (e.g. pathlib.Path).
 bool isPath(const py::handle& value);

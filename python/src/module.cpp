@@ -200,7 +200,8 @@ py::tuple readHandleFile(const py::object& file, const py::object& V, const py::
 
 void writeArrays(const py::object& file, const py::object& V, const py::object& E,
                  const py::object& vertexProperties, const py::object& elementProperties,
-                 const std::string& vertexQuality, const std::string& faceQuality, bool colors) {
+                 const py::object& vertexQuality, const py::object& faceQuality,
+                 const py::object& colors) {
   // Its warnings issued before the file is put in place: one that the filters make an error
   // leaves the file as it was.
   PyWarnings warnings;
@@ -219,9 +220,9 @@ void writeArrays(const py::object& file, const py::object& V, const py::object& 
           name, toVector(value, ("element property '" + name + "'").c_str(), mesh.numElements()));
     }
   WriteOptions options;
-  options.vertexQuality = vertexQuality;
-  options.faceQuality = faceQuality;
-  options.colors = colors;
+  options.vertexQuality = toText(vertexQuality, "vertex_quality");
+  options.faceQuality = toText(faceQuality, "face_quality");
+  options.colors = toFlag(colors, "colors");
   StagedOutputs staged;
   {
     py::gil_scoped_release release;
@@ -401,8 +402,8 @@ void bindFiles(py::module_& m) {
   m.def("write_mesh", &writeArrays, py::arg("path"), py::arg("V"),  // its own PyWarnings
         py::arg("E"), py::arg("vertex_properties") = py::none(),
         py::arg("element_properties") = py::none(),
-        py::arg("vertex_quality") = std::string(prop::weight),
-        py::arg("face_quality") = std::string(prop::distortion), py::arg("colors") = true,
+        py::arg("vertex_quality") = py::str(prop::weight),
+        py::arg("face_quality") = py::str(prop::distortion), py::arg("colors") = py::bool_(true),
         "write_mesh(path, V, E, vertex_properties=None, element_properties=None, "
         "vertex_quality='diffreg:weight', face_quality='diffreg:distortion', colors=True)\n\n"
         "Writes OBJ/OFF/PLY/OM (triangles) or .mesh/PLY boundary (tets), atomically. "

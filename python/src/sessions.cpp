@@ -79,13 +79,13 @@ class PyDiffusionWeights {
     session_.setHandles(set);
     count_ = static_cast<int>(set.handles.size());
   }
-  void setRange(int handle, double r) {
+  void setRange(const py::object& handle, const py::object& r) {
     const SessionLock lock(mutex_);
-    session_.setRange(checked(handle), r);
+    session_.setRange(checked(handle), toReal(r, "r"));
   }
-  void setMagnitude(int handle, double m) {
+  void setMagnitude(const py::object& handle, const py::object& m) {
     const SessionLock lock(mutex_);
-    session_.setMagnitude(checked(handle), m);
+    session_.setMagnitude(checked(handle), toReal(m, "m"));
   }
   void setParams(const py::kwargs& kwargs) {
     const SessionLock lock(mutex_);
@@ -121,11 +121,12 @@ class PyDiffusionWeights {
   }
 
  private:
-  int checked(int handle) const {
+  int checked(const py::object& value) const {
+    const long long handle = toInteger(value, "handle");
     if (handle < 0 || handle >= count_)
       throw InvalidParameter("handle " + std::to_string(handle) + " out of range (" +
                              std::to_string(count_) + " handles)");
-    return handle;
+    return static_cast<int>(handle);
   }
   std::unique_ptr<Shape> shape_;  // before session_, which refers to it
   DiffusionWeights session_;
@@ -193,7 +194,7 @@ class PyDeformationSession {
                          const py::object& weights) {
     const SessionLock lock(mutex_);
     std::map<std::string, std::string> values{{"regularization", mode}};
-    if (!beta.is_none()) values["beta"] = formatNumber(beta.cast<double>());
+    if (!beta.is_none()) values["beta"] = formatNumber(toReal(beta, "beta"));
     const ParamMap params = paramsOf("deform", values);
     warnInapplicable(params, shape_->mesh.kind());  // a beta the mode does not use
     Eigen::VectorXd w;
@@ -201,13 +202,13 @@ class PyDeformationSession {
     session_->setRegularization(parseEnum<Regularization>(params.getString("regularization")),
                                 params.getFloat("beta"), w);
   }
-  void setBeta(double beta) {
+  void setBeta(const py::object& beta) {
     const SessionLock lock(mutex_);
-    session_->setBeta(beta);
+    session_->setBeta(toReal(beta, "beta"));
   }
-  void setTimeBudget(double seconds) {
+  void setTimeBudget(const py::object& seconds) {
     const SessionLock lock(mutex_);
-    session_->setTimeBudget(seconds);
+    session_->setTimeBudget(toReal(seconds, "seconds"));
   }
   py::object lastTargets() const {
     const SessionLock lock(mutex_);

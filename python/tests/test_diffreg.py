@@ -433,6 +433,38 @@ def test_run_refuses_handle_values_it_would_not_use(tmp_path):
         diffreg.run((V, E), ["measure"], handles=mesh("bar-bend.json"), magnitudes=magnitudes)
 
 
+def test_scalar_arguments_of_a_wrong_type_are_named_in_one_line(tmp_path):
+    V, E, handles, _, _, _ = scenario("bar.obj", "bar-bend.json")
+    cases = [
+        (lambda: diffreg.write_mesh(str(tmp_path / "x.ply"), V, E, colors="no"),
+         "colors: expected a bool, got str"),
+        (lambda: diffreg.write_mesh(str(tmp_path / "x.ply"), V, E, vertex_quality=None),
+         "vertex_quality: expected a str, got NoneType"),
+    ]
+    session = diffreg.DeformationSession(V, E)
+    cases += [
+        (lambda: session.set_beta("x"), "beta: expected a number, got str"),
+        (lambda: session.set_regularization("uniform", beta=[0.5]), "beta: expected a number, got list"),
+        (lambda: session.set_time_budget(True), "seconds: expected a number, got bool"),
+        (lambda: session.set_beta(1e308), r"beta = 1e\+308 is outside \[0, 1\]$"),
+    ]
+    weights = diffreg.DiffusionWeights(V, E)
+    weights.set_handles(handles)
+    cases += [
+        (lambda: weights.set_range(0, "x"), "r: expected a number, got str"),
+        (lambda: weights.set_range(2**70, 1.0), "handle: 1180591620717411303424 is out of range"),
+        (lambda: weights.set_magnitude(True, 0.5), "handle: expected an integer, got bool"),
+    ]
+    for call, message in cases:
+        with pytest.raises(ValueError, match=message) as caught:
+            call()
+        assert "\n" not in str(caught.value) and len(str(caught.value)) < 200
+    # numpy's scalars are numbers.
+    weights.set_range(np.int64(1), np.float64(2.0))
+    session.set_beta(np.array(0.25))
+    assert not list(tmp_path.iterdir())
+
+
 def test_an_object_made_without_init_is_refused_not_used():
     for cls in (diffreg.DeformationSession, diffreg.DiffusionWeights):
         unbuilt = cls.__new__(cls)
