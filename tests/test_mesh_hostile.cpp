@@ -128,6 +128,19 @@ TEST_CASE("coordinates are doubles; values beyond double are refused", "[mesh][h
     CHECK(mesh.positions()(1, 0) == 3.5e38);
     CHECK(mesh.elements().row(1) == Eigen::RowVector3i(1, 3, 2));
   }
+  SECTION("coordinates whose area or volume overflows are named as such, not as degenerate") {
+    const std::string tri = tmp.file("huge.obj", "v 0 0 0\nv 1e300 0 0\nv 0 1e300 0\nf 1 2 3\n");
+    CHECK(messageOf<InvalidMesh>([&] { readMesh(tri); }) ==
+          tri +
+              ": face 0 (0-based)'s area overflows: a corner has a coordinate of 1e+300; scale "
+              "the mesh");
+    const std::string tet =
+        tmp.file("huge.mesh",
+                 "MeshVersionFormatted 1\nDimension 3\nVertices\n4\n0 0 0 0\n1e200 0 0 0\n"
+                 "0 1e200 0 0\n0 0 1e200 0\nTetrahedra\n1\n1 2 3 4 0\nEnd\n");
+    CHECK_THAT(messageOf<InvalidMesh>([&] { readMesh(tet); }),
+               Catch::Contains("tet 0 (0-based)'s volume overflows"));
+  }
   SECTION("a fine grid far from the origin is not degenerate") {
     std::string obj;
     for (int j = 0; j < 3; ++j)

@@ -381,13 +381,22 @@ void validateMesh(const Mesh& mesh, const std::string& path) {
     const double h = edgeSum / edges;
     const Eigen::Vector3d a = p.row(e(k, 0)).transpose(), b = p.row(e(k, 1)).transpose(),
                           c = p.row(e(k, 2)).transpose();
+    // Coordinates near the top of the double range overflow the products (a NaN area).
+    const auto overflow = [&](const char* what) {
+      double largest = 0.0;
+      for (int j = 0; j < s; ++j) largest = std::max(largest, p.row(e(k, j)).cwiseAbs().maxCoeff());
+      return InvalidMesh(name() + "'s " + what + " overflows: a corner has a coordinate of " +
+                         num(largest) + "; scale the mesh");
+    };
     if (s == 3) {
       const double area = 0.5 * (b - a).cross(c - a).norm();
+      if (!std::isfinite(area) || !std::isfinite(h)) throw overflow("area");
       if (!(area > 1e-14 * h * h)) {
         throw InvalidMesh(name() + " is degenerate (area " + num(area) + ")");
       }
     } else {
       const double vol = det3(a, b, c, p.row(e(k, 3)).transpose()) / 6.0;
+      if (!std::isfinite(vol) || !std::isfinite(h)) throw overflow("volume");
       if (!(std::abs(vol) > 1e-14 * h * h * h)) {
         throw InvalidMesh(name() + " is degenerate (volume " + num(vol) + ")");
       }

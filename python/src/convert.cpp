@@ -24,8 +24,15 @@ std::string shapeText(const py::array& a) {
 // The object as a numpy array of real (or, with `integer`, integer) numbers.
 py::array asArray(const py::handle& obj, const std::string& what, bool integer) {
   if (obj.is_none()) throw InvalidParameter(what + ": expected an array, got None");
-  py::array a = py::array::ensure(obj);
-  if (!a) throw InvalidParameter(what + ": expected an array of numbers");
+  // numpy.asarray, so that an exception of the object's own (its __array__, a Ctrl-C) reaches
+  // the caller as itself; what numpy says of an object it cannot take is ours, naming `what`.
+  py::array a;
+  try {
+    a = py::module_::import("numpy").attr("asarray")(obj);
+  } catch (py::error_already_set& e) {
+    if (!e.matches(PyExc_ValueError) && !e.matches(PyExc_TypeError)) throw;
+    throw InvalidParameter(what + ": expected an array of numbers");
+  }
   const char kind = a.dtype().kind();
   if (a.size() == 0) return a;  // an empty list has dtype float64; the shape check says more
   if (integer && kind != 'i' && kind != 'u')
@@ -246,9 +253,13 @@ HandleSet toHandles(const Mesh& mesh, const py::handle& handles, const py::handl
   bool perHandleTargets = false;
   if (isSequence(targets)) {
     const py::sequence t = py::reinterpret_borrow<py::sequence>(targets);
-    if (t.size() == set.handles.size() && t.size() > 0) {
+    if (t.size() > 0) {
       const py::array first = py::array::ensure(t[0]);
       perHandleTargets = first && first.ndim() == 2;
+      if (perHandleTargets && t.size() != set.handles.size())
+        throw InvalidParameter("targets: " + std::to_string(t.size()) + " arrays for " +
+                               std::to_string(set.handles.size()) +
+                               " handles (one (k_j, 3) array per handle, or one stacked array)");
     }
   }
   if (perHandleTargets) {

@@ -459,6 +459,14 @@ def test_scalar_arguments_of_a_wrong_type_are_named_in_one_line(tmp_path):
         with pytest.raises(ValueError, match=message) as caught:
             call()
         assert "\n" not in str(caught.value) and len(str(caught.value)) < 200
+    # An object's own exception from __array__ reaches the caller as itself.
+    class Refuses:
+        def __array__(self, *args, **kwargs):
+            raise RuntimeError("mine")
+    with pytest.raises(RuntimeError, match="mine"):
+        diffreg.diffuse_weights(Refuses(), E, handles)
+    with pytest.raises(ValueError, match=r"targets: 2 arrays for 3 handles"):
+        diffreg.deform(V, E, [[0], [5], [9]], [V[[0]], V[[5]]])
     # numpy's scalars are numbers.
     weights.set_range(np.int64(1), np.float64(2.0))
     session.set_beta(np.array(0.25))
