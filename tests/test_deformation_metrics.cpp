@@ -142,9 +142,9 @@ TEST_CASE("positions beyond 1e30 are refused, never measured as NaN or infinity"
     for (const Eigen::MatrixXd* X :
          std::initializer_list<const Eigen::MatrixXd*>{&scaled, &moved, &broken}) {
       CHECK_THROWS_WITH(measureDeformation(*disc, Energy::Arap, *X, w),
-                        Catch::Contains("metrics: the positions have a coordinate"));
+                        Catch::Contains("metrics: the positions"));
       CHECK_THROWS_WITH(measureDeformation(*disc, Energy::Arap, rest, w, X),
-                        Catch::Contains("metrics: the reference positions have a coordinate"));
+                        Catch::Contains("metrics: the reference positions"));
       CHECK_THROWS_AS(elementDistortion(*disc, Energy::Arap, *X), InvalidParameter);
     }
     // Within the bound: finite.

@@ -24,10 +24,16 @@ void checkPositions(const Discretization& disc, const Eigen::MatrixXd& X,
                            std::to_string(disc.numVertices()) + " x " + std::to_string(disc.dim()));
   // As for the rest shape's size: beyond kMaxMeshSize the squares and products of the measures
   // overflow (a NaN distortion at 1e78, an infinite one or Dist at 1e155).
-  if (!X.allFinite())  // maxCoeff below may pass over a NaN
-    throw InvalidParameter("metrics: the " + std::string(what) +
-                           " have a coordinate that is not finite");
-  const double largest = X.size() ? X.cwiseAbs().maxCoeff() : 0.0;
+  // Unreferenced vertices are in no system and measured by nothing: only the others count.
+  const std::vector<bool>& active = disc.active();
+  double largest = 0.0;
+  for (Eigen::Index i = 0; i < X.rows(); ++i) {
+    if (!active[static_cast<size_t>(i)]) continue;
+    if (!X.row(i).allFinite())
+      throw InvalidParameter("metrics: the " + std::string(what) + " of vertex " +
+                             std::to_string(i) + " (0-based) are not finite");
+    largest = std::max(largest, X.row(i).cwiseAbs().maxCoeff());
+  }
   if (largest > kMaxMeshSize) {
     char text[32];
     std::snprintf(text, sizeof text, "%.3g", largest);

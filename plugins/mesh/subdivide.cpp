@@ -99,7 +99,7 @@ FilterResult SubdivideFilter::apply(Document& doc, const ParamMap& params) const
   const int iterations = params.getInt("iterations");
   // Refused before any work: 8 steps make a 512-triangle mesh 33.5M triangles (several GB).
   const std::int64_t triangles = std::int64_t(doc.mesh.numElements()) << (2 * iterations);
-  if (triangles > kMaxSubdividedTriangles)
+  if (iterations > 0 && triangles > kMaxSubdividedTriangles)
     throw InvalidParameter(
         "filter subdivide: parameter 'iterations' = " + std::to_string(iterations) +
         " would make " + std::to_string(triangles) + " triangles of the mesh's " +

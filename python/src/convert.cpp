@@ -299,20 +299,34 @@ void checkWeightsFor(const std::string& who, const std::string& regularization,
 
 namespace {
 
+/// numpy's bool scalar, or a 0-d array of bools.
 bool isNumpyBool(const py::handle& value) {
-  return py::isinstance(value, py::module_::import("numpy").attr("bool_"));
+  const py::module_ numpy = py::module_::import("numpy");
+  if (py::isinstance(value, numpy.attr("bool_"))) return true;
+  if (!py::isinstance<py::array>(value)) return false;
+  const py::array a = py::reinterpret_borrow<py::array>(value);
+  return a.ndim() == 0 && a.dtype().kind() == 'b';
+}
+
+/// Calls `convert` (PyNumber_Index or PyNumber_Float) on `value` once: the result, or null
+/// when the object is no such number (a TypeError or ValueError, cleared). Any other exception
+/// of the object's own (a KeyboardInterrupt in its __index__) reaches the caller as itself.
+py::object numberOf(const py::handle& value, PyObject* (*convert)(PyObject*)) {
+  PyObject* result = convert(value.ptr());
+  if (result) return py::reinterpret_steal<py::object>(result);
+  if (!PyErr_ExceptionMatches(PyExc_TypeError) && !PyErr_ExceptionMatches(PyExc_ValueError))
+    throw py::error_already_set();
+  PyErr_Clear();
+  return py::object();
 }
 
 /// An integer's text by operator.index (ints, numpy integers and integer 0-d arrays); nothing
 /// for the others: int() would truncate a float array's 0.5 to 0.
 std::optional<std::string> indexText(const py::handle& value) {
   if (!PyIndex_Check(value.ptr())) return std::nullopt;
-  PyObject* index = PyNumber_Index(value.ptr());
-  if (!index) {
-    PyErr_Clear();
-    return std::nullopt;
-  }
-  return std::string(py::str(py::reinterpret_steal<py::object>(index)));
+  const py::object index = numberOf(value, PyNumber_Index);
+  if (!index) return std::nullopt;
+  return std::string(py::str(index));
 }
 
 }  // namespace
@@ -328,24 +342,24 @@ namespace {
 
 double toReal(const py::handle& value, const char* what) {
   if (PyBool_Check(value.ptr()) || isNumpyBool(value) || py::isinstance<py::str>(value) ||
-      py::isinstance<py::bytes>(value) || !py::hasattr(value, "__float__"))
+      py::isinstance<py::bytes>(value) ||
+      (!py::hasattr(value, "__float__") && !PyIndex_Check(value.ptr())))
     wrongType(value, what, "a number");
-  PyObject* number = PyNumber_Float(value.ptr());
-  if (!number) {  // e.g. a 2-element array
-    PyErr_Clear();
-    wrongType(value, what, "a number");
-  }
-  return py::reinterpret_steal<py::float_>(number).cast<double>();
+  const py::object number = numberOf(value, PyNumber_Float);
+  if (!number) wrongType(value, what, "a number");  // e.g. a 2-element array
+  return number.cast<double>();
 }
 
 long long toInteger(const py::handle& value, const char* what) {
-  if (PyBool_Check(value.ptr()) || isNumpyBool(value) || !indexText(value))
+  if (PyBool_Check(value.ptr()) || isNumpyBool(value) || !PyIndex_Check(value.ptr()))
     wrongType(value, what, "an integer");
-  const long long v =
-      PyLong_AsLongLong(py::reinterpret_steal<py::object>(PyNumber_Index(value.ptr())).ptr());
+  const py::object index = numberOf(value, PyNumber_Index);  // __index__ once
+  if (!index) wrongType(value, what, "an integer");
+  const long long v = PyLong_AsLongLong(index.ptr());
   if (v == -1 && PyErr_Occurred()) {  // beyond 64 bits
     PyErr_Clear();
-    throw InvalidParameter(std::string(what) + ": " + *indexText(value) + " is out of range");
+    throw InvalidParameter(std::string(what) + ": " + std::string(py::str(index)) +
+                           " is out of range");
   }
   return v;
 }

@@ -467,10 +467,33 @@ def test_scalar_arguments_of_a_wrong_type_are_named_in_one_line(tmp_path):
         diffreg.diffuse_weights(Refuses(), E, handles)
     with pytest.raises(ValueError, match=r"targets: 2 arrays for 3 handles"):
         diffreg.deform(V, E, [[0], [5], [9]], [V[[0]], V[[5]]])
+    # The object's own exception from __index__ or __float__ reaches the caller as itself.
+    class IndexRaises:
+        def __index__(self):
+            raise KeyboardInterrupt
+    class FloatRaises:
+        def __float__(self):
+            raise RuntimeError("boom-float")
+    with pytest.raises(KeyboardInterrupt):
+        weights.set_range(IndexRaises(), 1.0)
+    with pytest.raises(RuntimeError, match="boom-float"):
+        session.set_beta(FloatRaises())
+    with pytest.raises(ValueError, match="'iterations' = 'true' is not an integer"):
+        diffreg.deform(V, E, handles, None, iterations=np.array(True))
+    # write_mesh names the path given: no extension, a directory.
+    with pytest.raises(OSError, match=r"\(no extension\)"):
+        diffreg.write_mesh(str(tmp_path / "noext"), V, E)
+    with pytest.raises(OSError, match="it is a directory"):
+        (tmp_path / "d.ply").mkdir()
+        diffreg.write_mesh(str(tmp_path / "d.ply"), V, E)
+    # A far vertex that no element uses is measured by nothing.
+    far = np.vstack([V, [[1e31, 0.0, 0.0]]])
+    with pytest.warns(diffreg.DiffregWarning, match="unreferenced"):
+        assert np.isfinite(diffreg.measure(far, E, far)["D_max"])
     # numpy's scalars are numbers.
     weights.set_range(np.int64(1), np.float64(2.0))
     session.set_beta(np.array(0.25))
-    assert not list(tmp_path.iterdir())
+    assert [p.name for p in tmp_path.iterdir()] == ["d.ply"]
 
 
 def test_an_object_made_without_init_is_refused_not_used():
