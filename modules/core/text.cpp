@@ -1,8 +1,10 @@
 #include <diffreg/core/text.h>
 
 #include <algorithm>
-#include <charconv>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 
 namespace diffreg {
 namespace {
@@ -91,10 +93,34 @@ std::string terminalLine(const std::string& text, size_t maxBytes) {
   return out;
 }
 
-std::string numberText(double value) {
-  char digits[32];
-  const auto r = std::to_chars(digits, digits + sizeof digits, value);
-  return std::string(digits, r.ptr);
+std::string formatNumber(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  // Shortest round-trip text in %g form, with a tidy exponent ("1e+06" -> "1e6").
+  char buf[64];
+  for (int precision = 1; precision <= 17; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, value);
+    if (std::strtod(buf, nullptr) == value) break;
+  }
+  std::string text = buf;
+  const auto e = text.find('e');
+  if (e == std::string::npos) return text;
+  std::string exponent = text.substr(e + 1);
+  const std::string sign = exponent[0] == '-' ? "-" : "";
+  exponent.erase(0, 1);
+  while (exponent.size() > 1 && exponent[0] == '0') exponent.erase(0, 1);
+  text = text.substr(0, e) + "e" + sign + exponent;
+  // Plain decimals when they are no longer ("100", "0.001" rather than "1e2", "1e-3").
+  if (std::abs(value) >= 1e-5 && std::abs(value) < 1e17) {
+    for (int decimals = 0; decimals <= 22; ++decimals) {
+      std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
+      if (std::strtod(buf, nullptr) == value) {
+        if (std::strlen(buf) <= text.size()) text = buf;
+        break;
+      }
+    }
+  }
+  return text;
 }
 
 std::string nulShown(const std::string& text) {

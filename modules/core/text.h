@@ -23,8 +23,11 @@ std::string escapeNonUtf8(const std::string& bytes);
 /// value stays readable.
 std::string terminalLine(const std::string& text, size_t maxBytes = 2000);
 
-/// The shortest text that reads back as `value` ("-1", "0.5", "1e+308"; "nan", "inf").
-std::string numberText(double value);
+/// Shortest text that reads back (strtod) as exactly `value`: plain decimals when no longer
+/// than the exponent form ("0.01", "100", "-1"), else a tidy exponent ("1e6", "1e-12",
+/// "1e308"); "nan", "inf", "-inf". The canonical text of Float parameters, and the numbers of
+/// messages.
+std::string formatNumber(double value);
 
 /// `text` with each NUL byte written as "\x00": a message is a C string, which would end there.
 std::string nulShown(const std::string& text);

@@ -142,7 +142,7 @@ void DeformationCore::setTimeBudget(double seconds) {
     throw InvalidParameter(
         "deformation: the time budget must be a non-negative number of "
         "seconds, not " +
-        numberText(seconds));
+        formatNumber(seconds));
   budget_ = seconds;
 }
 

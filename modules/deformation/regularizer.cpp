@@ -55,7 +55,8 @@ RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regu
       break;
     case Regularization::Uniform:
       if (!(beta >= 0.0 && beta <= 1.0))
-        throw InvalidParameter("regularization: beta = " + numberText(beta) + " is outside [0, 1]");
+        throw InvalidParameter("regularization: beta = " + formatNumber(beta) +
+                               " is outside [0, 1]");
       w.element.setConstant(m, beta);
       w.facet.setConstant(nf, beta);
       break;

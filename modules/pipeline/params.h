@@ -3,6 +3,7 @@
 #pragma once
 
 #include <diffreg/core/names.h>
+#include <diffreg/core/text.h>  // formatNumber, the canonical text of Float parameters
 
 #include <map>
 #include <set>
@@ -68,11 +69,6 @@ class ParamMap {
   std::map<std::string, std::string> text_;
   std::set<std::string> given_;
 };
-
-/// Shortest text that reads back (strtod) as exactly `value`: plain decimals when no longer
-/// than the exponent form ("0.01", "100"), else a tidy exponent ("1e6", "1e-12"). The
-/// canonical text of Float parameters.
-std::string formatNumber(double value);
 
 /// Whether a Float or Int parameter has a finite bound (min > -1e300 or max < 1e300).
 bool hasRange(const ParamSpec& spec);
