@@ -22,6 +22,21 @@ std::string canonicalTarget(const std::string& path) {
   return ec ? fs::absolute(path).lexically_normal().string() : p.string();
 }
 
+void checkWritableDir(const std::string& path) {
+  fs::path dir = fs::path(writeTarget(path)).parent_path();  // where the temporary goes
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    throw IoError("cannot write '" + path + "': '" + dir.string() + "' " +
+                  (fs::exists(dir, ec) ? "is not a directory" : "does not exist"));
+  if (::access(dir.c_str(), W_OK | X_OK) != 0)
+    throw IoError("cannot write '" + path + "': directory '" + dir.string() + "' is not writable");
+  const fs::file_status st = fs::status(path, ec);
+  if (fs::is_directory(st)) throw IoError("cannot write '" + path + "': it is a directory");
+  if (fs::exists(st) && !fs::is_regular_file(st))
+    throw IoError("cannot write '" + path + "': it exists and is not a regular file");
+}
+
 StagedOutputs::~StagedOutputs() {
   for (const Entry& e : staged_) {
     std::remove(e.temporary.c_str());

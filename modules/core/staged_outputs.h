@@ -13,6 +13,11 @@ namespace diffreg {
 /// exists): two spellings of one file give the same string.
 std::string canonicalTarget(const std::string& path);
 
+/// \throw IoError unless the directory that would hold `path` exists and is writable and
+/// `path` is not a directory or another non-regular file: what staging it needs, checked on
+/// the path given before any work (its temporary has another name).
+void checkWritableDir(const std::string& path);
+
 /// Files written under temporary names beside their targets (same extension, so writers that
 /// pick a format by it still do), renamed into place together by commit(). A target that is a
 /// symbolic link stays one: the file it leads to is replaced. Whatever was not

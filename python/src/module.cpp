@@ -16,8 +16,6 @@
 
 #include <diffreg/version.h>
 
-#include <filesystem>
-
 namespace diffreg::python {
 
 void bindSessions(py::module_& m);
@@ -225,9 +223,8 @@ void writeArrays(const py::object& file, const py::object& V, const py::object& 
   options.vertexQuality = toText(vertexQuality, "vertex_quality");
   options.faceQuality = toText(faceQuality, "face_quality");
   options.colors = toFlag(colors, "colors");
-  // Checked on the path given: its temporary has another name (and a directory none).
-  if (std::filesystem::is_directory(path))
-    throw IoError("cannot write '" + path + "': it is a directory");
+  // Checked on the path given: its temporary has another name.
+  checkWritableDir(path);
   checkWritable(path, mesh.kind());
   StagedOutputs staged;
   {

@@ -16,8 +16,6 @@
 #include <iostream>
 #include <sstream>
 
-#include <unistd.h>
-
 namespace fs = std::filesystem;
 
 namespace diffreg {
@@ -116,21 +114,6 @@ int parseUp(const std::string& command, const std::string& up) {
   if (up == "auto") return -1;
   if (up == "x" || up == "y" || up == "z") return up[0] - 'x';
   throw UsageError(command + ": --up '" + up + "' is not one of auto, x, y, z");
-}
-
-void checkWritableDir(const std::string& path) {
-  fs::path dir = fs::path(writeTarget(path)).parent_path();  // where the temporary goes
-  if (dir.empty()) dir = ".";
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec))
-    throw IoError("cannot write '" + path + "': '" + dir.string() + "' " +
-                  (fs::exists(dir, ec) ? "is not a directory" : "does not exist"));
-  if (::access(dir.c_str(), W_OK | X_OK) != 0)
-    throw IoError("cannot write '" + path + "': directory '" + dir.string() + "' is not writable");
-  const fs::file_status st = fs::status(path, ec);
-  if (fs::is_directory(st)) throw IoError("cannot write '" + path + "': it is a directory");
-  if (fs::exists(st) && !fs::is_regular_file(st))
-    throw IoError("cannot write '" + path + "': it exists and is not a regular file");
 }
 
 void checkOutputTarget(const std::string& path, const std::vector<std::string>& extensions) {

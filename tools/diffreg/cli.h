@@ -63,10 +63,6 @@ void parseSize(const std::string& command, const std::string& size, int& width, 
 /// \throw UsageError for anything else.
 int parseUp(const std::string& command, const std::string& up);
 
-/// \throw IoError unless the directory that would hold `path` exists and is writable and
-/// `path` is not a directory or another non-regular file.
-void checkWritableDir(const std::string& path);
-
 /// The extensions of a picture output (-o of compare and resolution).
 inline const std::vector<std::string> kPictureExtensions = {"png"};
 
