@@ -105,15 +105,15 @@ namespace {
 /// The terminal's word that a run ended unconverged (the report has it as `converged`), with
 /// how far it is: the criterion, what the last iteration changed.
 void warnNotConverged(const DeformationResult& result, const DeformationOptions& options) {
-  char gain[32];
-  std::snprintf(gain, sizeof gain, "%.2g", result.criterion);
-  const double tolerance = options.relTolerance;
   if (std::isnan(result.criterion)) {
     warn("deform: not converged after " + std::to_string(result.iterations) +
          " iteration: the first global step, with nothing yet to measure convergence by "
          "(raise iterations)");
     return;
   }
+  char gain[32];
+  std::snprintf(gain, sizeof gain, "%.2g", result.criterion);
+  const double tolerance = options.relTolerance;
   const std::string why =
       tolerance == 0.0 ? "tolerance=0 stops only where rounding is all that is left"
       : result.criterion <= tolerance

@@ -329,10 +329,6 @@ std::optional<std::string> indexText(const py::handle& value) {
   return std::string(py::str(index));
 }
 
-}  // namespace
-
-namespace {
-
 [[noreturn]] void wrongType(const py::handle& value, const char* what, const char* expected) {
   throw InvalidParameter(std::string(what) + ": expected " + expected + ", got " +
                          std::string(py::str(py::type::of(value).attr("__name__"))));
