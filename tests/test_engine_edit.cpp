@@ -132,6 +132,25 @@ TEST_CASE("edit engine: invalid states are refused and leave the session unchang
   refused(bad);
 }
 
+TEST_CASE("edit engine: a target's reach ignores unreferenced vertices", "[engine]") {
+  // The bar (8 x 1, diagonal about 8.06) with one vertex that no triangle uses, far away.
+  TriMesh t = shipped("bar.obj").tri();
+  t.add_vertex({1e6, 0.0, 0.0});
+  EditEngine s{Mesh(t)};
+  EditState state = s.state();
+  state.handles.push_back(handle(s, state, {0, 33}));
+  state.handles.push_back(handle(s, state, {32, 65}));
+  state.handles[1].targets.col(1).array() += 1.0;
+  // Measured from the centre of a box that took the stray vertex in, these targets were
+  // "more than 1000 mesh diagonals away".
+  REQUIRE_NOTHROW(s.setState(state));
+  CHECK(s.update().solved);
+  // The reach is still 1000 diagonals of the bar itself.
+  EditState far = s.state();
+  far.handles[1].targets.col(0).array() += 9000.0;
+  CHECK_THROWS_WITH(s.setState(far), Catch::Contains("1000 mesh diagonals"));
+}
+
 TEST_CASE("edit engine: the handle file of any accepted state reads back", "[engine]") {
   EditEngine s(shipped("bar.obj"));
   EditState state = s.state();

@@ -309,6 +309,22 @@ TEST_CASE("hostile handle values are refused up front, naming file, handle and f
     }
     CHECK((t.row(1) - t.row(2)).norm() == Approx((r.row(2) - r.row(8)).norm()));
   }
+  SECTION("the reach is the referenced vertices': a far unreferenced vertex widens nothing") {
+    TriMesh t = mesh.tri();  // the unit square, diagonal sqrt(2)
+    t.add_vertex({1e6, 1e6, 0.0});
+    const Mesh loose(t);
+    // Measured from the box with the stray vertex, a target beside the square was "more than
+    // 1000 mesh diagonals away" from that box's centre.
+    CHECK_NOTHROW(parseHandles(R"({"handles": [{"vertices": [1], "translate": [0.5, 0]}]})", loose,
+                               "h.json"));
+    // And 2000 units is over 1000 diagonals of the square, however far the stray vertex lies.
+    try {
+      parseHandles(R"({"handles": [{"vertices": [1], "translate": [2000, 0]}]})", loose, "h.json");
+      FAIL("a target 1400 diagonals away was taken");
+    } catch (const InvalidParameter& e) {
+      CHECK_THAT(e.what(), Contains("1000 mesh diagonals"));
+    }
+  }
   SECTION("a translate that overflows or goes far away") {
     CHECK_THAT(message(R"({"handles": [{"vertices": [1], "translate": [1e30, 0]}]})"),
                Contains("1000 mesh diagonals"));

@@ -229,7 +229,9 @@ EditEngine::EditEngine(Mesh mesh, std::shared_ptr<const Discretization> disc,
 
 void EditEngine::initialize() {
   positions_ = mesh_.positions();
-  restCenter_ = 0.5 * (positions_.colwise().minCoeff() + positions_.colwise().maxCoeff());
+  // The centre of the referenced vertices, as the diagonal that validate() pairs it with.
+  const Eigen::AlignedBox3d box = meshBounds(mesh_);
+  restCenter_ = box.isEmpty() ? Eigen::Vector3d::Zero().eval() : box.center().eval();
   weights_ = Eigen::VectorXd::Zero(disc_->numVertices());
   distortion_ = Eigen::VectorXd::Zero(disc_->numElements());
   smoothness_ = Eigen::VectorXd::Zero(disc_->numElements());

@@ -58,11 +58,14 @@ class Parser {
         planar_(mesh.kind() == MeshKind::Planar),
         search_(rest_, used_),
         owner_(rest_.rows(), -1) {
-    if (rest_.rows() > 0) {
-      planeZ_ = rest_(0, 2);
-      const double diagonal = (rest_.colwise().maxCoeff() - rest_.colwise().minCoeff()).norm();
+    if (rest_.rows() > 0) planeZ_ = rest_(0, 2);  // a planar mesh's vertices share their z
+    // The referenced vertices' box: a far unreferenced vertex must not move the centre that a
+    // target's reach is measured from, nor loosen the tolerances.
+    const Eigen::AlignedBox3d box = meshBounds(mesh);
+    if (!box.isEmpty()) {
+      const double diagonal = box.diagonal().norm();
       tol_ = 1e-9 * std::max(1.0, diagonal);
-      center_ = 0.5 * (rest_.colwise().maxCoeff() + rest_.colwise().minCoeff()).transpose();
+      center_ = box.center();
       reach_ = 1000.0 * std::max(diagonal, 1e-300);
     }
   }

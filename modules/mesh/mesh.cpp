@@ -173,6 +173,17 @@ std::vector<bool> Mesh::referenced() const {
   return used;
 }
 
+Eigen::AlignedBox3d meshBounds(const Mesh& mesh) { return meshBounds(mesh, mesh.positions()); }
+
+Eigen::AlignedBox3d meshBounds(const Mesh& mesh, const Eigen::MatrixXd& p) {
+  Eigen::AlignedBox3d box;
+  const std::vector<bool> used = mesh.referenced();
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    if (used[static_cast<size_t>(i)] && p.row(i).allFinite())
+      box.extend(Eigen::Vector3d(p.row(i).transpose()));
+  return box;
+}
+
 bool Mesh::hasVertexScalar(const std::string& name) const {
   if (isTet()) return tetVertexProps_.count(name) > 0;
   VProp h;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 
 #include <array>
@@ -145,5 +146,13 @@ class Mesh {
   std::map<std::string, Eigen::VectorXd> tetVertexProps_, tetElementProps_;
   std::vector<std::string> vertexNames_, elementNames_;
 };
+
+/// Bounds of the referenced vertices at their current positions, skipping non-finite ones
+/// (an empty box for none). An unreferenced vertex, which no element moves or measures, never
+/// widens them: frames, handle reach and the like take their size and centre from here.
+/// Extend several of these to frame a series of panels alike.
+Eigen::AlignedBox3d meshBounds(const Mesh& mesh);
+/// The same for the mesh's vertices at `positions` (n x 3), e.g. its rest shape.
+Eigen::AlignedBox3d meshBounds(const Mesh& mesh, const Eigen::MatrixXd& positions);
 
 }  // namespace diffreg

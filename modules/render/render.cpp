@@ -599,16 +599,6 @@ Eigen::Vector3d Projection::project(const Eigen::Vector3d& world) const {
   return {cx_ + scale_ * q.x(), cy_ - scale_ * q.y(), scale_ * q.z()};
 }
 
-Eigen::AlignedBox3d meshBounds(const Mesh& mesh) { return meshBounds(mesh, mesh.positions()); }
-
-Eigen::AlignedBox3d meshBounds(const Mesh& mesh, const Eigen::MatrixXd& p) {
-  Eigen::AlignedBox3d box;
-  const std::vector<bool> used = mesh.referenced();
-  for (int i = 0; i < p.rows(); ++i)
-    if (used[i] && p.row(i).allFinite()) box.extend(Eigen::Vector3d(p.row(i).transpose()));
-  return box;
-}
-
 int uprightAxis(const Eigen::AlignedBox3d& frame) {
   if (frame.isEmpty()) return 1;
   const Eigen::Vector3d size = frame.sizes();

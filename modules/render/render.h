@@ -121,12 +121,6 @@ class Projection {
   bool shaded_ = false;
 };
 
-/// Bounds of the referenced vertices at their current positions (empty box for no vertices);
-/// extend several of these to frame a series of panels alike.
-Eigen::AlignedBox3d meshBounds(const Mesh& mesh);
-/// The same for the mesh's vertices at `positions` (n x 3), e.g. its rest shape.
-Eigen::AlignedBox3d meshBounds(const Mesh& mesh, const Eigen::MatrixXd& positions);
-
 /// The world axis drawn vertically in 3D views when none is asked for (up=auto, the tool's
 /// compare and resolution without --up): the longest side of `frame`, so that a standing
 /// figure stands and a long part fills a portrait panel (y for an empty frame or a tie).
