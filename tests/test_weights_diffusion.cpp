@@ -324,6 +324,9 @@ TEST_CASE("Bad handles and parameters are clear errors", "[weights]") {
   CHECK_THROWS_WITH(w.setHandles({{0, 0}}, {1.0}, {1.0}),
                     Catch::Contains("vertex 0 is listed twice"));
   CHECK_THROWS_AS(w.setHandles({{0}}, {1e-7}, {1.0}), InvalidParameter);
+  // The value as it reads back, not rounded onto the bound it missed.
+  CHECK_THROWS_WITH(w.setHandles({{0}}, {9.9999999e-7}, {1.0}),
+                    Catch::Contains("(got 9.9999999e-7)"));
   w.setHandles({{0}}, {1.0}, {1.0});
   CHECK_THROWS_WITH(w.setMagnitude(0, 2.0), Catch::Contains("magnitude must be in [0, 1]"));
   CHECK_THROWS_AS(w.setParams(params(0.0, DiffusionOrder::First)), InvalidParameter);

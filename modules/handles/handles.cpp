@@ -13,13 +13,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
 #include <unordered_map>
 
 namespace diffreg {
@@ -37,13 +35,6 @@ std::string join(const std::vector<std::string>& words) {
   std::string out;
   for (const auto& w : words) out += (out.empty() ? "" : ", ") + w;
   return out;
-}
-
-/// `v` with at most 6 significant digits, for messages ("1e+100", not 100 digits).
-std::string shortNumber(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
 }
 
 /// Parses one handle file against a mesh; every error names the source and the handle.
@@ -164,8 +155,7 @@ class Parser {
 
   void checkPlanar(const Eigen::Vector3d& target, const std::string& what) const {
     if (planar_ && std::abs(target[2] - planeZ_) > tol_) {
-      fail(what + " leaves the plane of the planar mesh (z must be " + shortNumber(planeZ_) +
-           ")");
+      fail(what + " leaves the plane of the planar mesh (z must be " + formatNumber(planeZ_) + ")");
     }
   }
 
@@ -208,7 +198,7 @@ class Parser {
       const double r = number(w["radius"], "\"within\" radius");
       if (!(r > 0.0)) fail("\"within\" radius must be > 0");
       ids = search_.within(c, r);
-      if (ids.empty()) fail("no vertex lies within radius " + shortNumber(r) + " of the center");
+      if (ids.empty()) fail("no vertex lies within radius " + formatNumber(r) + " of the center");
     }
     if (ids.empty()) fail("empty handle (no vertices selected)");
     std::vector<int> sorted = ids;
@@ -310,10 +300,10 @@ class Parser {
     if (h.contains("range")) out.range = number(h["range"], "\"range\"");
     if (h.contains("magnitude")) out.magnitude = number(h["magnitude"], "\"magnitude\"");
     if (!(out.range >= kMinHandleRange && out.range <= kMaxHandleRange)) {
-      fail("\"range\" must be in [1e-6, 1e6], got " + shortNumber(out.range));
+      fail("\"range\" must be in [1e-6, 1e6], got " + formatNumber(out.range));
     }
     if (!(out.magnitude >= 0.0 && out.magnitude <= 1.0)) {
-      fail("\"magnitude\" must be >= 0 and <= 1, got " + shortNumber(out.magnitude));
+      fail("\"magnitude\" must be >= 0 and <= 1, got " + formatNumber(out.magnitude));
     }
     out.vertices = select(h);
     out.targets = move(h, out.vertices);

@@ -3,6 +3,7 @@
 
 #include <diffreg/core/error.h>
 #include <diffreg/core/log.h>
+#include <diffreg/core/text.h>
 #include <diffreg/core/timer.h>
 
 #include <algorithm>
@@ -11,16 +12,6 @@
 #include <sstream>
 
 namespace diffreg {
-namespace {
-
-/// A number as a message shows it (1e-310, 0.5).
-std::string numberText(double x) {
-  std::ostringstream text;
-  text << x;
-  return text.str();
-}
-
-}  // namespace
 
 DiffusionCore::DiffusionCore(const Discretization& disc, SolverBackend backend)
     : disc_(disc), solver_(backend) {}
@@ -36,11 +27,11 @@ void DiffusionCore::setHandles(const std::vector<std::vector<int>>& vertexSets,
     const std::string h = "weights: handle " + std::to_string(j);
     if (vertexSets[j].empty()) throw InvalidParameter(h + " selects no vertex");
     if (!(ranges[j] >= kMinHandleRange && ranges[j] <= kMaxHandleRange))
-      throw InvalidParameter(h + ": range must be in [1e-6, 1e6] (got " + numberText(ranges[j]) +
+      throw InvalidParameter(h + ": range must be in [1e-6, 1e6] (got " + formatNumber(ranges[j]) +
                              ")");
     if (!(magnitudes[j] >= 0.0 && magnitudes[j] <= 1.0))
-      throw InvalidParameter(h + ": magnitude must be in [0, 1] (got " + numberText(magnitudes[j]) +
-                             ")");
+      throw InvalidParameter(h + ": magnitude must be in [0, 1] (got " +
+                             formatNumber(magnitudes[j]) + ")");
     for (int v : vertexSets[j]) {
       if (v < 0 || v >= n)
         throw InvalidParameter(h + ": vertex " + std::to_string(v) + " out of range [0, " +
@@ -76,7 +67,7 @@ void DiffusionCore::setMagnitude(int handle, double m) {
     throw InvalidParameter("weights: no handle " + std::to_string(handle));
   if (!(m >= 0.0 && m <= 1.0))
     throw InvalidParameter("weights: handle " + std::to_string(handle) +
-                           ": magnitude must be in [0, 1] (got " + numberText(m) + ")");
+                           ": magnitude must be in [0, 1] (got " + formatNumber(m) + ")");
   magnitudes_[handle] = m;  // right-hand side only (pcg: superposition, see solve())
 }
 
@@ -85,7 +76,7 @@ void DiffusionCore::setRange(int handle, double r) {
     throw InvalidParameter("weights: no handle " + std::to_string(handle));
   if (!(r >= kMinHandleRange && r <= kMaxHandleRange))
     throw InvalidParameter("weights: handle " + std::to_string(handle) +
-                           ": range must be in [1e-6, 1e6] (got " + numberText(r) + ")");
+                           ": range must be in [1e-6, 1e6] (got " + formatNumber(r) + ")");
   if (r == ranges_[handle]) return;
   ranges_[handle] = r;
   matrixDirty_ = productDirty_ = true;  // N changes: numeric refactorization only
