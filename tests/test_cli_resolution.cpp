@@ -136,4 +136,14 @@ TEST_CASE("diffreg resolution: bad options and input exit non-zero with one line
     CHECK(r.err.find(needle) != std::string::npos);
     CHECK(s.files() == 0);
   }
+  // A vertex that no element uses has a number but no weight: said so, not "not a vertex".
+  {
+    std::ifstream bar(shipped("bar.obj"));
+    std::ofstream(s.dir / "stray.obj") << bar.rdbuf() << "v 1e29 1e29 0\n";
+  }
+  const ToolRun r = s.run("resolution -i stray.obj " + h + "-o r.png --probe 293");
+  INFO(r.err);
+  CHECK(r.code == 2);
+  CHECK(r.err.find("--probe 293 is not part of any element") != std::string::npos);
+  CHECK_FALSE(s.has("r.png"));
 }

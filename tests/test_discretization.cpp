@@ -294,8 +294,8 @@ TEST_CASE("A planar discretization of points off their plane is refused, not fla
                     Catch::Contains("planar mesh lies in a plane z = const") &&
                         Catch::Contains("z spans 0.5") && Catch::Contains("as a surface"));
   CHECK(Discretization(MeshKind::Surface, P, F).dim() == 3);
-  // A mesh read as planar passes: the same points decide as in Mesh, unused vertices included
-  // (one far away makes a tiny z spread of the used ones planar for both).
+  // Mesh and Discretization decide by the same points, the used ones: an unused vertex far
+  // away does not make the used ones' z spread of 1e-11 look flat (it did, for both).
   Eigen::MatrixXd Q(5, 3);
   Q << 0, 0, 0, 1, 0, 0, 1, 1, 1e-11, 0, 1, 0, 1000, 0, 0;
   TriMesh tri;
@@ -304,8 +304,12 @@ TEST_CASE("A planar discretization of points off their plane is refused, not fla
   tri.add_face(tri.vertex_handle(0), tri.vertex_handle(1), tri.vertex_handle(2));
   tri.add_face(tri.vertex_handle(0), tri.vertex_handle(2), tri.vertex_handle(3));
   const Mesh far(std::move(tri));
-  REQUIRE(far.kind() == MeshKind::Planar);
-  CHECK(Discretization(far).dim() == 2);
+  CHECK(far.kind() == MeshKind::Surface);
+  CHECK(Discretization(far).dim() == 3);
+  CHECK_THROWS_WITH(Discretization(MeshKind::Planar, Q, F), Catch::Contains("z spans 1e-11"));
+  // And one with another z does not make a flat mesh a surface.
+  Q(2, 2) = 0.0;
+  Q(4, 2) = 7.0;
   CHECK(Discretization(MeshKind::Planar, Q, F).numElements() == 2);
 }
 

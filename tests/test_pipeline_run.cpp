@@ -402,3 +402,113 @@ TEST_CASE("pipeline: the filters share the document's edit engine and its factor
   again.add("diffuse_weights", {{"t", "0.03"}});
   CHECK(again.run(copy)["filters"][0]["symbolic"].get<int>() == 1);
 }
+
+namespace {
+
+/// `mesh` with one more vertex at `p` that no element uses: the first vertex (the others
+/// renumbered after it) or the last.
+Mesh withStray(const Mesh& mesh, const Eigen::Vector3d& p, bool first) {
+  const int shift = first ? 1 : 0;
+  if (mesh.isTet()) {
+    TetMesh tet = mesh.tet();
+    tet.points.insert(first ? tet.points.begin() : tet.points.end(), p);
+    for (auto& t : tet.tets)
+      for (int& v : t) v += shift;
+    return Mesh(std::move(tet));
+  }
+  const TriMesh& from = mesh.tri();
+  TriMesh to;
+  if (first) to.add_vertex({p.x(), p.y(), p.z()});
+  for (auto v : from.vertices()) to.add_vertex(from.point(v));
+  if (!first) to.add_vertex({p.x(), p.y(), p.z()});
+  for (auto f : from.faces()) {
+    std::vector<TriMesh::VertexHandle> corners;
+    for (auto v : from.fv_range(f)) corners.push_back(to.vertex_handle(v.idx() + shift));
+    to.add_face(corners);
+  }
+  return Mesh(to);
+}
+
+}  // namespace
+
+TEST_CASE("pipeline: a vertex that no element uses changes no result", "[pipeline][hostile]") {
+  // Such a vertex is kept with its number and left out of every system. Before, one far away
+  // (or with another z) decided whether a mesh was planar, moved the centre that the first
+  // global step subtracts (1e29 took every digit: a tet bar's energy came out 1.3e28), had its
+  // weight checked and its value stretch the picture's colour range.
+  struct Case {
+    std::string mesh, handles;
+    Eigen::Vector3d stray;
+    bool first;
+  };
+  // Handles by position (the numbering shifts when the stray vertex comes first); the bar's
+  // vectors have two entries, as a planar mesh's may.
+  const std::string bar =
+      R"({"handles": [{"within": {"center": [-10, 0.5], "radius": 10.05}, "magnitude": 0.5},
+                      {"nearest": [8, 1], "translate": [0, 2], "range": 2}]})";
+  const std::string cylinder = R"({"handles": [
+      {"within": {"center": [0, 0, -1], "radius": 1.5}},
+      {"within": {"center": [0, 0, 5], "radius": 1.5},
+       "rotate": {"center": [0, 0, 4], "axis": [0, 0, 1], "degrees": 90}}]})";
+  const std::string tetbar = R"({"handles": [
+      {"within": {"center": [-10, 0.5, 0.5], "radius": 10.1}, "magnitude": 0.5},
+      {"within": {"center": [4.1, 0.5, 0.5], "radius": 0.3}, "translate": [0, 0, -1]}]})";
+  const Case cases[] = {
+      {"bar.obj", bar, {4.0, 0.5, 7.0}, true},          // another z, first
+      {"bar.obj", bar, {1e29, 1e29, 0.0}, false},       // far away in the plane
+      {"cylinder.obj", cylinder, {1e13, 0, 0}, false},  // wide enough to make z look flat
+      {"cylinder.obj", cylinder, {0, 0, 1e20}, true},
+      {"tetbar.mesh", tetbar, {1e29, 1e29, 1e29}, false},
+  };
+  testing::TempDir dir;
+  const auto run = [&](const Mesh& mesh, const std::string& handles, int stray,
+                       const std::string& picture) {
+    Document doc = testing::inCode(mesh, handles);
+    Pipeline weights;
+    weights.add("diffuse_weights", {{"t", "0.02"}});
+    weights.run(doc);
+    if (stray >= 0) {  // a value no weight may have, where no element reads it
+      Eigen::VectorXd x = doc.mesh.vertexScalar(prop::weight);
+      x(stray) = 5.0;
+      doc.mesh.setVertexScalar(prop::weight, x);
+    }
+    Pipeline p;
+    p.add("deform",
+          {{"regularization", "nonuniform"}, {"acceleration", "none"}, {"iterations", "3"}});
+    p.add("measure");
+    p.add("render", {{"file", (dir.path / picture).string()},
+                     {"property", "weight"},
+                     {"width", "96"},
+                     {"height", "64"}});
+    const nlohmann::json report = p.run(doc);
+    return std::make_pair(std::move(doc), report["filters"]);
+  };
+  for (const Case& c : cases) {
+    INFO(c.mesh << " with a vertex at " << c.stray.transpose() << (c.first ? ", first" : ""));
+    const Mesh clean = readMesh(shipped(c.mesh));
+    const Mesh loose = withStray(clean, c.stray, c.first);
+    CHECK(loose.kind() == clean.kind());
+    const int stray = c.first ? 0 : clean.numVertices();
+    const auto [a, ra] = run(clean, c.handles, -1, "a.png");
+    const auto [b, rb] = run(loose, c.handles, stray, "b.png");
+    const int shift = c.first ? 1 : 0, n = clean.numVertices();
+    const Eigen::MatrixXd pa = a.mesh.positions(), pb = b.mesh.positions();
+    const Eigen::VectorXd wa = a.mesh.vertexScalar(prop::weight),
+                          wb = b.mesh.vertexScalar(prop::weight);
+    double position = 0.0, weight = 0.0;
+    for (int v = 0; v < n; ++v) {
+      position = std::max(position, (pa.row(v) - pb.row(v + shift)).norm());
+      weight = std::max(weight, std::abs(wa(v) - wb(v + shift)));
+    }
+    CHECK(position <= 1e-9);
+    CHECK(weight <= 1e-12);
+    CHECK(pb.row(stray) == c.stray.transpose());  // kept where it was
+    const nlohmann::json &ma = ra[1]["metrics"], &mb = rb[1]["metrics"];
+    for (const char* metric : {"D_max", "D_ave", "energy"})
+      CHECK(mb[metric].get<double>() == Approx(ma[metric].get<double>()).epsilon(1e-9));
+    CHECK(mb["inverted"] == ma["inverted"]);
+    // The colour bar spans [0, the largest weight] of what is drawn.
+    CHECK(ra[2]["scale_max"].get<double>() == Approx(wa.maxCoeff()));
+    CHECK(rb[2]["scale_max"].get<double>() == Approx(wa.maxCoeff()));
+  }
+}

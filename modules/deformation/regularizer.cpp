@@ -13,11 +13,13 @@ namespace diffreg {
 namespace {
 
 // Non-uniform weights must lie in [0, 1] (beta_k > 1 would make (1 - beta_k) a_k negative).
-// The error names the vertex farthest outside and by how much.
-void checkVertexWeights(const Eigen::VectorXd& x) {
+// The error names the vertex farthest outside and by how much. A vertex that no element uses
+// enters no beta_k or beta_kl, so its value is not looked at.
+void checkVertexWeights(const Eigen::VectorXd& x, const std::vector<bool>& active) {
   int worst = -1;
   double excess = 0.0;
   for (int i = 0; i < x.size(); ++i) {
+    if (!active[static_cast<size_t>(i)]) continue;
     const double e = std::isnan(x(i)) ? INFINITY : std::max(x(i) - 1.0, -x(i));
     if (e > excess) {
       excess = e;
@@ -35,8 +37,8 @@ void checkVertexWeights(const Eigen::VectorXd& x) {
   throw InvalidParameter(
       "regularization: the weight of vertex " + std::to_string(worst) + " is " + value +
       ", outside [0, 1]" +
-      (v > 1.0 ? " (summed RBF weights exceed 1 where another handle's Gaussian reaches a "
-                 "handle: rbf_weights clamp=true clamps them)"
+      (v > 1.0 ? " (from rbf_weights, the summed Gaussians exceed 1 where another handle's "
+                 "reaches a handle: rbf_weights clamp=true clamps them)"
                : ""));
 }
 
@@ -65,7 +67,7 @@ RegularizationWeights makeRegularizationWeights(const Discretization& disc, Regu
         throw InvalidParameter("regularization: " + std::to_string(x.size()) +
                                " vertex weights for a mesh of " +
                                std::to_string(disc.numVertices()) + " vertices");
-      checkVertexWeights(x);
+      checkVertexWeights(x, disc.active());
       const Eigen::MatrixXi& el = disc.elements();
       w.element.resize(m);
       for (int k = 0; k < m; ++k) {

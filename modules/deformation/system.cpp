@@ -404,7 +404,17 @@ void RegularizedSystem::restRightHandSide(Eigen::MatrixXd& b) const {
   // raised the 1M editor scenario's peak by 38 MB, as a freed block of that size lifts glibc's
   // mmap threshold and later blocks of its size stay in the heap.
   const SparseMatrix& A = matrix();
-  const Eigen::RowVectorXd center = rest.colwise().mean();
+  // The centroid of the vertices the elements use: a vertex far away that none uses would
+  // move it there and take the digits of every x - c.
+  const std::vector<bool>& active = model_.discretization().active();
+  Eigen::RowVectorXd center = Eigen::RowVectorXd::Zero(rest.cols());
+  Eigen::Index used = 0;
+  for (Eigen::Index v = 0; v < rest.rows(); ++v)
+    if (active[static_cast<size_t>(v)]) {
+      center += rest.row(v);
+      ++used;
+    }
+  if (used > 0) center /= static_cast<double>(used);
   b.setZero(A.rows(), rest.cols());
   for (Eigen::Index col = 0; col < rest.cols(); ++col)
     for (Eigen::Index j = 0; j < A.outerSize(); ++j) {

@@ -332,16 +332,15 @@ void Discretization::build(MeshKind kind, const Eigen::MatrixXd& positions,
   checkSize(extent);
   diagonal_ = extent.norm();
   // A planar discretization keeps x and y only: a z that varies would be dropped in silence.
-  // The same test as Mesh's planar kind, on the same points (every vertex, used or not).
-  if (kind == MeshKind::Planar && P3.rows() > 0) {
-    const Eigen::Vector3d all = P3.colwise().maxCoeff() - P3.colwise().minCoeff();
-    if (all(2) > 0.0 && !planarSpread(all(2), all.norm())) {
-      char text[96];
-      std::snprintf(text, sizeof text, "%.3g (bounding-box diagonal %.3g)", all(2), all.norm());
-      throw InvalidMesh(std::string("discretization: a planar mesh lies in a plane z = const, "
-                                    "but its z spans ") +
-                        text + "; give it as a surface");
-    }
+  // The same test as Mesh's planar kind, on the same points (the referenced vertices).
+  if (kind == MeshKind::Planar && extent(2) > 0.0 &&
+      !planarSpread(extent(2), extent.stableNorm())) {
+    char text[96];
+    std::snprintf(text, sizeof text, "%.3g (bounding-box diagonal %.3g)", extent(2),
+                  extent.stableNorm());
+    throw InvalidMesh(std::string("discretization: a planar mesh lies in a plane z = const, "
+                                  "but its z spans ") +
+                      text + "; give it as a surface");
   }
 
   TetFacets records;  // tets: adjacency by sorting their facets

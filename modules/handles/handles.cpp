@@ -49,7 +49,12 @@ class Parser {
         planar_(mesh.kind() == MeshKind::Planar),
         search_(rest_, used_),
         owner_(rest_.rows(), -1) {
-    if (rest_.rows() > 0) planeZ_ = rest_(0, 2);  // a planar mesh's vertices share their z
+    // A planar mesh's referenced vertices share their z (an unreferenced one may not).
+    for (Eigen::Index v = 0; v < rest_.rows(); ++v)
+      if (used_[static_cast<size_t>(v)]) {
+        planeZ_ = rest_(v, 2);
+        break;
+      }
     // The referenced vertices' box: a far unreferenced vertex must not move the centre that a
     // target's reach is measured from, nor loosen the tolerances.
     const Eigen::AlignedBox3d box = meshBounds(mesh);

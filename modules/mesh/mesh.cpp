@@ -62,25 +62,16 @@ static_assert(std::is_nothrow_move_constructible_v<Mesh> && std::is_nothrow_move
 Mesh::Mesh(TriMesh tri) : Mesh(std::make_unique<TriMesh>(tri)) {}
 
 Mesh::Mesh(std::unique_ptr<TriMesh> tri) : tri_(std::move(tri)) {
-  double lo[3], hi[3];
-  for (int c = 0; c < 3; ++c) {
-    lo[c] = std::numeric_limits<double>::infinity();
-    hi[c] = -lo[c];
-  }
+  // Planar when the referenced vertices share their z; a mesh without faces by all its vertices.
+  Eigen::AlignedBox3d used, all;
   for (auto v : tri_->vertices()) {
     const auto& p = tri_->point(v);
-    for (int c = 0; c < 3; ++c) {
-      lo[c] = std::min(lo[c], p[c]);
-      hi[c] = std::max(hi[c], p[c]);
-    }
+    const Eigen::Vector3d q(p[0], p[1], p[2]);
+    all.extend(q);
+    if (!tri_->is_isolated(v)) used.extend(q);
   }
-  kind_ = MeshKind::Surface;
-  if (tri_->n_vertices() > 0) {
-    double diag2 = 0.0;
-    for (int c = 0; c < 3; ++c) diag2 += (hi[c] - lo[c]) * (hi[c] - lo[c]);
-    const double spread = hi[2] - lo[2];
-    if (planarSpread(spread, std::sqrt(diag2))) kind_ = MeshKind::Planar;
-  }
+  kind_ = tri_->n_vertices() > 0 && planarBox(used.isEmpty() ? all : used) ? MeshKind::Planar
+                                                                           : MeshKind::Surface;
   collectDoubleProps(tri_->vprops_begin(), tri_->vprops_end(), vertexNames_);
   collectDoubleProps(tri_->fprops_begin(), tri_->fprops_end(), elementNames_);
 }

@@ -39,6 +39,15 @@ inline bool planarSpread(double zSpread, double diagonal) {
   return zSpread == 0.0 || zSpread <= 1e-12 * diagonal;
 }
 
+/// Whether points with bounding box `box` lie in a plane z = const (planarSpread of its z extent
+/// and its diagonal, which does not overflow). A mesh's kind and every later test of its plane
+/// take the box of its referenced vertices: a vertex that no element uses decides nothing.
+inline bool planarBox(const Eigen::AlignedBox3d& box) {
+  if (box.isEmpty()) return true;
+  const Eigen::Vector3d extent = box.sizes();
+  return planarSpread(extent.z(), extent.stableNorm());
+}
+
 /// "planar", "surface" or "tet".
 const char* toString(MeshKind kind);
 

@@ -157,9 +157,12 @@ Field resolveField(const Mesh& mesh, const RenderOptions& options) {
   }
   field.present = options.values.size() > 0 || !options.property.empty();
 
+  // The range of what is drawn: a vertex that no element uses colours nothing.
+  const std::vector<bool> used = field.perVertex ? mesh.referenced() : std::vector<bool>();
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (double v : values) {
-    if (std::isfinite(v)) {
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    const double v = values[i];
+    if (std::isfinite(v) && (used.empty() || used[static_cast<size_t>(i)])) {
       lo = std::min(lo, v);
       hi = std::max(hi, v);
     }
@@ -216,6 +219,10 @@ RenderLayout layoutFor(const RenderOptions& options, const Field& field) {
     throw InvalidParameter("render: margin must be in [0, 0.5)");
   }
   RenderLayout layout;
+  if (field.present) {
+    layout.colorMin = field.lo;
+    layout.colorMax = field.hi;
+  }
   const int ts = autoTextScale(options);
   layout.textScale = ts;
   const int pad = 4 * ts, lineH = textHeight(ts);

@@ -91,10 +91,12 @@ struct PixelRect {
 };
 
 /// Where renderMesh puts things: the viewport the mesh is fitted into, the colour bar's
-/// gradient (top = high end), and the title band (empty rectangles when absent).
+/// gradient (top = high end), and the title band (empty rectangles when absent); and the
+/// values at the colour map's two ends (0 and 0 without a scalar field).
 struct RenderLayout {
   PixelRect viewport, colorBar, title;
   int textScale = 1;
+  double colorMin = 0.0, colorMax = 0.0;
 };
 
 /// The layout renderMesh uses for `mesh` and `options` (the colour bar's width depends on

@@ -153,15 +153,10 @@ FilterResult RenderFilter::apply(Document& doc, const ParamMap& params) const {
 
   FilterResult result;
   result.data = {{"file", file}, {"property", choice}};
-  if (!options.property.empty()) {
-    const Eigen::VectorXd values = options.site == ScalarSite::Vertex
-                                       ? mesh.vertexScalar(options.property)
-                                       : mesh.elementScalar(options.property);
-    double top = 0.0;
-    for (int i = 0; i < values.size(); ++i)
-      if (std::isfinite(values[i])) top = std::max(top, values[i]);
-    result.data["scale_min"] = 0.0;
-    result.data["scale_max"] = options.rangeMax ? *options.rangeMax : top;
+  if (!options.property.empty()) {  // the colour bar's ends, as drawn
+    const RenderLayout layout = renderLayout(mesh, options);
+    result.data["scale_min"] = layout.colorMin;
+    result.data["scale_max"] = layout.colorMax;
   }
   return result;
 }

@@ -213,9 +213,12 @@ std::vector<int> comparedVertices(const Document& base, const ResolutionSettings
   if (free.empty())
     throw InvalidParameter("resolution: every vertex of '" + s.input +
                            "' is a handle vertex; there are no weights to compare");
-  if (s.probe && (*s.probe < 0 || *s.probe >= n0 || !used[*s.probe]))
+  if (s.probe && (*s.probe < 0 || *s.probe >= n0))
     throw UsageError("resolution: --probe " + std::to_string(*s.probe) +
                      " is not a vertex of the mesh (0.." + std::to_string(n0 - 1) + ")");
+  if (s.probe && !used[static_cast<size_t>(*s.probe)])
+    throw UsageError("resolution: --probe " + std::to_string(*s.probe) +
+                     " is not part of any element, so it has no weight to follow");
   return free;
 }
 
