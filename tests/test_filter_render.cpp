@@ -87,6 +87,16 @@ TEST_CASE("render: weights in viridis from 0, handles marked, the document untou
   const Eigen::VectorXd w = bent.mesh.vertexScalar(prop::weight);
   CHECK(entry["scale_min"].get<double>() == 0.0);
   CHECK(entry["scale_max"].get<double>() == Approx(w.maxCoeff()));
+  // A field of zeros is drawn, and reported, on [0, 1]: above the bottom the filter fixes at 0
+  // (it was centred on [-1, 1], and the report said 0 to 0).
+  {
+    Document zero = bent;
+    zero.mesh.setVertexScalar(prop::weight, Eigen::VectorXd::Zero(w.size()));
+    const nlohmann::json flat = render(zero, {{"file", dir / "zero.png"}, {"property", "weight"}});
+    CHECK(flat["scale_min"].get<double>() == 0.0);
+    CHECK(flat["scale_max"].get<double>() == 1.0);
+    fs::remove(dir / "zero.png");
+  }
 
   // The same picture as the renderer with the documented options.
   RenderOptions options;

@@ -317,11 +317,12 @@ TEST_CASE("hostile handle values are refused up front, naming file, handle and f
     TriMesh t = mesh.tri();  // the unit square, diagonal sqrt(2)
     t.add_vertex({1e6, 1e6, 0.0});
     const Mesh loose(t);
-    // Measured from the box with the stray vertex, a target beside the square was "more than
-    // 1000 mesh diagonals away" from that box's centre.
+    // A target beside the square is taken (the edit engine, which paired the square's diagonal
+    // with the centre of the box that took the stray vertex in, refused it).
     CHECK_NOTHROW(parseHandles(R"({"handles": [{"vertices": [1], "translate": [0.5, 0]}]})", loose,
                                "h.json"));
-    // And 2000 units is over 1000 diagonals of the square, however far the stray vertex lies.
+    // And 2000 units is over 1000 diagonals of the square, however far the stray vertex lies
+    // (measured on the box with the stray vertex, the reach was 1.4e9).
     try {
       parseHandles(R"({"handles": [{"vertices": [1], "translate": [2000, 0]}]})", loose, "h.json");
       FAIL("a target 1400 diagonals away was taken");

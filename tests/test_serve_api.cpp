@@ -23,8 +23,8 @@ namespace {
 
 /// A server on 127.0.0.1:<free port> serving bar.obj (32 x 4 cells, 8 x 1).
 struct Fixture {
-  Fixture() {
-    Mesh mesh = readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/bar.obj");
+  Fixture() : Fixture(readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/bar.obj")) {}
+  explicit Fixture(Mesh mesh) {
     api = std::make_unique<Api>(std::make_unique<EditEngine>(std::move(mesh)), "bar.obj");
     server = std::make_unique<HttpServer>(*api);
     port = server->bind("127.0.0.1", 0);
@@ -348,4 +348,21 @@ TEST_CASE("serve API: POST /api/refine continues an unconverged deformation", "[
   CHECK_FALSE(budget.at("update").at("converged").get<bool>());
   CHECK_FALSE(budget.at("metrics").at("energy_relaxed").get<bool>());
   CHECK(f.send("PATCH", "/api/params", R"({"local_step": "foo"})").first == 422);
+}
+
+TEST_CASE("serve API: a field's range leaves out the vertices that no element uses", "[serve]") {
+  TriMesh bar = readMesh(std::string(DIFFREG_SOURCE_DIR) + "/meshes/bar.obj").tri();
+  bar.add_vertex({100.0, 0.0, 0.0});  // vertex 293, in no triangle: its weight is 0
+  Fixture f{Mesh(bar)};
+  f.ok("PATCH", "/api/params", R"({"t": 0.5})");  // weights well above 0 all along the bar
+  f.ok("POST", "/api/handles", kLeft);
+  f.ok("POST", "/api/handles", kRight);
+  const json field = f.ok("GET", "/api/field?name=weight");
+  const auto values = field.at("values").get<std::vector<double>>();
+  REQUIRE(values.size() == 294);
+  CHECK(values[293] == 0.0);
+  const double lowest = *std::min_element(values.begin(), values.end() - 1);
+  REQUIRE(lowest > 0.01);
+  CHECK(field.at("min").get<double>() == lowest);
+  CHECK(field.at("max").get<double>() == Approx(1.0));
 }

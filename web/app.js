@@ -229,10 +229,13 @@ function viewRotation() {
 }
 
 function fit() {
-  // Fit the current shape into the free part of the view.
+  // Fit the current shape into the free part of the view: the vertices its faces use, so that
+  // one that no element uses (kept, far away perhaps) does not shrink the mesh to a dot.
   const box = new THREE.Box3();
   const x = app.positions || app.mesh.rest;
-  for (let i = 0; i < x.length; i += 3) box.expandByPoint(new THREE.Vector3(x[i], x[i + 1], x[i + 2]));
+  const add = (v) => box.expandByPoint(new THREE.Vector3(x[3 * v], x[3 * v + 1], x[3 * v + 2]));
+  if (app.mesh.faces.length > 0) for (const v of app.mesh.faces) add(v);
+  else for (let v = 0; v < x.length / 3; ++v) add(v);
   box.getCenter(app.view.center);
   app.view.zoom = 1;
   app.view.box = box;

@@ -407,14 +407,18 @@ void RegularizedSystem::restRightHandSide(Eigen::MatrixXd& b) const {
   // The centroid of the vertices the elements use: a vertex far away that none uses would
   // move it there and take the digits of every x - c.
   const std::vector<bool>& active = model_.discretization().active();
+  const Eigen::Index used = std::count(active.begin(), active.end(), true);
   Eigen::RowVectorXd center = Eigen::RowVectorXd::Zero(rest.cols());
-  Eigen::Index used = 0;
-  for (Eigen::Index v = 0; v < rest.rows(); ++v)
-    if (active[static_cast<size_t>(v)]) {
-      center += rest.row(v);
-      ++used;
+  if (used == rest.rows()) {
+    center = rest.colwise().mean();
+  } else if (used > 0) {
+    for (Eigen::Index col = 0; col < rest.cols(); ++col) {
+      double sum = 0.0;
+      for (Eigen::Index v = 0; v < rest.rows(); ++v)
+        if (active[static_cast<size_t>(v)]) sum += rest(v, col);
+      center(col) = sum / static_cast<double>(used);
     }
-  if (used > 0) center /= static_cast<double>(used);
+  }
   b.setZero(A.rows(), rest.cols());
   for (Eigen::Index col = 0; col < rest.cols(); ++col)
     for (Eigen::Index j = 0; j < A.outerSize(); ++j) {

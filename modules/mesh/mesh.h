@@ -22,7 +22,8 @@ struct TriTraits : public OpenMesh::DefaultTraits {
   EdgeAttributes(OpenMesh::Attributes::Status);
 };
 
-/// Triangle mesh for planar (2D, all z equal) and surface (3D thin shell) meshes.
+/// Triangle mesh for planar (2D: the vertices its faces use share one z) and surface (3D thin
+/// shell) meshes.
 using TriMesh = OpenMesh::TriMesh_ArrayKernelT<TriTraits>;
 
 /// Tetrahedral mesh: points and positively oriented tets (0-based indices).
@@ -41,7 +42,8 @@ inline bool planarSpread(double zSpread, double diagonal) {
 
 /// Whether points with bounding box `box` lie in a plane z = const (planarSpread of its z extent
 /// and its diagonal, which does not overflow). A mesh's kind and every later test of its plane
-/// take the box of its referenced vertices: a vertex that no element uses decides nothing.
+/// take the box of its referenced vertices: a vertex that no element uses decides nothing (a
+/// mesh without faces is decided by all its vertices).
 inline bool planarBox(const Eigen::AlignedBox3d& box) {
   if (box.isEmpty()) return true;
   const Eigen::Vector3d extent = box.sizes();

@@ -180,10 +180,12 @@ Field resolveField(const Mesh& mesh, const RenderOptions& options) {
     throw InvalidParameter("render: colour range min " + formatTick(lo) + " exceeds max " +
                            formatTick(hi));
   }
-  if (hi - lo <= 1e-300 + 1e-12 * std::abs(lo)) {  // constant: centre it on the map
-    const double half = lo != 0.0 ? 0.5 * std::abs(lo) : 1.0;
-    lo -= half;
-    hi = lo + 2.0 * half;
+  if (hi - lo <= 1e-300 + 1e-12 * std::abs(lo)) {
+    // Constant: centre it on the map, or above a bottom that was asked for (a field of zeros
+    // on [0, 1], not [-1, 1]).
+    const double width = lo != 0.0 ? std::abs(lo) : options.rangeMin ? 1.0 : 2.0;
+    if (!options.rangeMin) lo -= 0.5 * width;
+    hi = lo + width;
   }
   field.lo = lo;
   field.hi = hi;

@@ -61,8 +61,9 @@ struct RenderOptions {
   std::string property;
   Eigen::VectorXd values;
   ScalarSite site = ScalarSite::Auto;
-  /// Colour range; unset ends come from the finite data min / max. Values outside are
-  /// clamped; a degenerate range maps everything to the middle colour.
+  /// Colour range; unset ends come from the finite values' min / max (a vertex property's at
+  /// the referenced vertices only). Values outside are clamped; a degenerate range is widened
+  /// about its value, or upwards from rangeMin when that is given.
   std::optional<double> rangeMin, rangeMax;
   Colormap colormap = Colormap::Viridis;
   Rgb noDataColor{200, 200, 205};  ///< no scalar, or a NaN value

@@ -294,8 +294,17 @@ ApiResponse fieldResponse(const EditEngine& s, const ApiRequest& r, const std::s
     throw InvalidParameter("field name = '" + name +
                            "' is not one of: weight, distortion, smoothness");
   }
-  const double lo = values->size() ? values->minCoeff() : 0.0;
-  const double hi = values->size() ? values->maxCoeff() : 0.0;
+  // The range of what is drawn: a weight at a vertex that no element uses colours nothing.
+  double lo = 0.0, hi = 0.0;
+  const std::vector<bool>& active = s.discretization().active();
+  bool any = false;
+  for (Eigen::Index i = 0; i < values->size(); ++i) {
+    if (site == "vertex" && !active[static_cast<size_t>(i)]) continue;
+    const double v = (*values)(i);
+    lo = any ? std::min(lo, v) : v;
+    hi = any ? std::max(hi, v) : v;
+    any = true;
+  }
   if (format == "f32") {
     ApiResponse out = float32Response(*values, s.computedVersion());
     out.headers.push_back({"X-Diffreg-Site", site});

@@ -38,8 +38,8 @@ function check(condition, message) {
 }
 
 /// Starts the server; resolves with its address once it has printed it.
-function startServer() {
-  const child = spawn(tool, ['serve', '-i', mesh, '--port', '0'], { stdio: ['ignore', 'pipe', 'pipe'] });
+function startServer(file) {
+  const child = spawn(tool, ['serve', '-i', file, '--port', '0'], { stdio: ['ignore', 'pipe', 'pipe'] });
   let stderr = '';
   child.stderr.on('data', (d) => { stderr += d; });
   return new Promise((resolve, reject) => {
@@ -59,7 +59,11 @@ const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'diffreg-e2e-chromium-
 let failed = false;
 try {
   fs.mkdirSync(outDir, { recursive: true });
-  server = await startServer();
+  // The mesh with one more vertex far away that no face uses: kept, numbered last, and never
+  // part of the view's frame (it used to shrink the mesh to a dot).
+  const served = path.join(outDir, 'stray' + path.extname(mesh));
+  fs.writeFileSync(served, fs.readFileSync(mesh, 'utf8').replace(/\n?$/, '\nv 1000000 0 0\n'));
+  server = await startServer(served);
   console.log(`server: ${server.url}`);
   context = await chromium.launchPersistentContext(userDataDir, {
     executablePath: chromiumPath,
@@ -76,6 +80,11 @@ try {
   await page.waitForSelector('body[data-ready="true"]', { timeout: 30000 });
   const rest = await page.evaluate(() => window.diffreg.positions());
   check(rest.length > 0 && rest.length % 3 === 0, `the page loaded ${rest.length / 3} vertices`);
+  {
+    const a = await page.evaluate(() => window.diffreg.screen(0));
+    const b = await page.evaluate(() => window.diffreg.screen(32));
+    check(Math.abs(b.x - a.x) > 600, `the bar fills the view (${Math.round(Math.abs(b.x - a.x))} px long)`);
+  }
 
   // bar.obj numbering: corner (i, j) is vertex 33 j + i; the left end middle is 66, the right
   // end middle 98.
