@@ -230,8 +230,9 @@ EditEngine::EditEngine(Mesh mesh, std::shared_ptr<const Discretization> disc,
 void EditEngine::initialize() {
   positions_ = mesh_.positions();
   // The centre of the referenced vertices, as the diagonal that validate() pairs it with.
-  const Eigen::AlignedBox3d box = meshBounds(mesh_);
-  restCenter_ = box.isEmpty() ? Eigen::Vector3d::Zero().eval() : box.center().eval();
+  const Eigen::AlignedBox3d box = meshBounds(positions_, disc_->active());
+  restCenter_.setZero();
+  if (!box.isEmpty()) restCenter_ = box.center();
   weights_ = Eigen::VectorXd::Zero(disc_->numVertices());
   distortion_ = Eigen::VectorXd::Zero(disc_->numElements());
   smoothness_ = Eigen::VectorXd::Zero(disc_->numElements());

@@ -57,10 +57,7 @@ class Parser {
       }
     // The referenced vertices' box: a far unreferenced vertex must not move the centre that a
     // target's reach is measured from, nor loosen the tolerances.
-    Eigen::AlignedBox3d box;
-    for (Eigen::Index v = 0; v < rest_.rows(); ++v)
-      if (used_[static_cast<size_t>(v)] && rest_.row(v).allFinite())
-        box.extend(rest_.row(v).transpose());
+    const Eigen::AlignedBox3d box = meshBounds(rest_, used_);
     if (!box.isEmpty()) {
       const double diagonal = box.diagonal().norm();
       tol_ = 1e-9 * std::max(1.0, diagonal);

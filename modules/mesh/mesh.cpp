@@ -167,8 +167,11 @@ std::vector<bool> Mesh::referenced() const {
 Eigen::AlignedBox3d meshBounds(const Mesh& mesh) { return meshBounds(mesh, mesh.positions()); }
 
 Eigen::AlignedBox3d meshBounds(const Mesh& mesh, const Eigen::MatrixXd& p) {
+  return meshBounds(p, mesh.referenced());
+}
+
+Eigen::AlignedBox3d meshBounds(const Eigen::MatrixXd& p, const std::vector<bool>& used) {
   Eigen::AlignedBox3d box;
-  const std::vector<bool> used = mesh.referenced();
   for (Eigen::Index i = 0; i < p.rows(); ++i)
     if (used[static_cast<size_t>(i)] && p.row(i).allFinite())
       box.extend(Eigen::Vector3d(p.row(i).transpose()));

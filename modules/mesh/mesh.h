@@ -165,5 +165,8 @@ class Mesh {
 Eigen::AlignedBox3d meshBounds(const Mesh& mesh);
 /// The same for the mesh's vertices at `positions` (n x 3), e.g. its rest shape.
 Eigen::AlignedBox3d meshBounds(const Mesh& mesh, const Eigen::MatrixXd& positions);
+/// The same for the rows of `positions` (n x 3) that `used` flags (Mesh::referenced(),
+/// Discretization::active()), for a caller that holds both already.
+Eigen::AlignedBox3d meshBounds(const Eigen::MatrixXd& positions, const std::vector<bool>& used);
 
 }  // namespace diffreg

@@ -43,9 +43,8 @@ Mesh readMatching(const Document& doc, const std::string& path, const std::strin
 void checkInPlane(const Discretization& disc, const Eigen::MatrixXd& positions,
                   const std::string& what) {
   if (disc.dim() != 2 || positions.cols() < 3 || positions.rows() == 0) return;
-  Eigen::AlignedBox3d box;  // of the vertices the elements use, as the mesh's kind is decided
-  for (Eigen::Index v = 0; v < positions.rows(); ++v)
-    if (disc.active()[static_cast<size_t>(v)]) box.extend(positions.row(v).head<3>().transpose());
+  // The vertices the elements use, as the mesh's kind is decided.
+  const Eigen::AlignedBox3d box = meshBounds(positions, disc.active());
   if (planarBox(box)) return;
   throw InvalidParameter("filter measure: the rest shape is planar, but " + what +
                          " leaves its plane (z spans " + formatNumber(box.sizes().z()) +
