@@ -186,8 +186,16 @@ TEST_CASE("the colour bar runs from the low colour at the bottom to the high col
     RenderOptions options;
     options.property = "x";
     options.colormap = map;
-    const Image image = renderMesh(mesh, options);
-    const PixelRect bar = renderLayout(mesh, options).colorBar;
+    RenderLayout drawn;
+    const Image image = renderMesh(mesh, options, &drawn);
+    const RenderLayout layout = renderLayout(mesh, options);
+    // The layout drawn is renderLayout's, its colour ends the data's range.
+    CHECK(drawn.colorBar.x == layout.colorBar.x);
+    CHECK(drawn.colorBar.h == layout.colorBar.h);
+    CHECK(drawn.viewport.w == layout.viewport.w);
+    CHECK(drawn.colorMin == 0.0);
+    CHECK(drawn.colorMax == 2.0);
+    const PixelRect bar = drawn.colorBar;
     REQUIRE(bar.h > 100);
     const int x = bar.x + bar.w / 2;
     CHECK(image.get(x, bar.y) == colormap(map, 1.0));

@@ -615,9 +615,10 @@ int uprightAxis(const Eigen::AlignedBox3d& frame) {
   return size.x() >= size.z() ? 0 : 2;
 }
 
-Image renderMesh(const Mesh& mesh, const RenderOptions& options) {
+Image renderMesh(const Mesh& mesh, const RenderOptions& options, RenderLayout* drawn) {
   const Field field = resolveField(mesh, options);
   const RenderLayout layout = layoutFor(options, field);
+  if (drawn) *drawn = layout;
   checkHandleVertices(mesh, options);
   Image image(options.width, options.height, options.background);
   Raster raster = makeRaster(layout.viewport, options);

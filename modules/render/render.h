@@ -136,6 +136,9 @@ int uprightAxis(const Eigen::AlignedBox3d& frame);
 /// \throw InvalidParameter for bad sizes, a `values` vector whose size matches neither vertex
 ///        nor element count (or the chosen site), handle ids out of range, or a colour range
 ///        with min > max or non-finite ends.
-Image renderMesh(const Mesh& mesh, const RenderOptions& options = {});
+/// When `layout` is given it receives the layout drawn (renderLayout's, without resolving the
+/// field a second time).
+Image renderMesh(const Mesh& mesh, const RenderOptions& options = {},
+                 RenderLayout* layout = nullptr);
 
 }  // namespace diffreg

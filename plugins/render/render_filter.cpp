@@ -148,13 +148,13 @@ FilterResult RenderFilter::apply(Document& doc, const ParamMap& params) const {
   options.upAxis = up == "x" ? 0 : up == "y" ? 1 : up == "z" ? 2 : uprightAxis(restBounds(doc));
   options.title = params.getString("title");
 
-  const Image image = renderMesh(mesh, options);
+  RenderLayout layout;
+  const Image image = renderMesh(mesh, options, &layout);
   writePng(doc.writePath(file), image);
 
   FilterResult result;
   result.data = {{"file", file}, {"property", choice}};
   if (!options.property.empty()) {  // the colour bar's ends, as drawn
-    const RenderLayout layout = renderLayout(mesh, options);
     result.data["scale_min"] = layout.colorMin;
     result.data["scale_max"] = layout.colorMax;
   }
